@@ -221,6 +221,10 @@ impl CascadeCoefficients {
                 return Err(ParamError::Unstable(Field::CommandFilter));
             }
         }
+        // Stable sections can still have a subnormal α2 whose DC gain overflows.
+        if !self.dc_gain().is_finite() {
+            return Err(ParamError::Unstable(Field::CommandFilter));
+        }
         Ok(())
     }
 

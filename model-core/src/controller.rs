@@ -159,9 +159,6 @@ impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
             .zip(&params.safe_ramp_rate)
         {
             filter.validate()?;
-            if !filter.dc_gain().is_finite() {
-                return Err(ParamError::Unstable(Field::CommandFilter));
-            }
             limits.validate()?;
             Range::new(limits.min, limits.max).check(Field::SafeDemand, *safe)?;
             SAFE_RAMP_RATE.check(Field::SafeRampRate, *ramp)?;

@@ -34,7 +34,9 @@ impl<const N: usize, const I: usize, const O: usize> Default
 }
 
 impl<const N: usize, const I: usize, const O: usize> DeltaStateSpaceCoefficients<N, I, O> {
-    /// `true` when every coefficient is finite.
+    /// `true` when every coefficient is finite. Stability (eigenvalues of `I + Δ` inside the
+    /// unit circle) is checked where the coefficients are designed (`mil-discretise`), not
+    /// here: an eigenvalue solver does not belong on the target.
     pub fn is_finite(&self) -> bool {
         let rows = |m: &[[f32; N]]| m.iter().flatten().all(|v| v.is_finite());
         let rows_i = |m: &[[f32; I]]| m.iter().flatten().all(|v| v.is_finite());

@@ -1,0 +1,260 @@
+//! Run configuration (TOML), validated once at the boundary into model-core's parameter set.
+//!
+//! Units are SI and named in every key (`_m`, `_hz`, `_n_per_m`, ...). Unknown keys are
+//! errors, so a misspelt parameter never silently falls back to a default.
+
+use crate::signals::RoadInput;
+use anyhow::{bail, Context, Result};
+use model_core::{
+    AeroParams, CascadeCoefficients, ControllerParams, DemandLimits, PreparedParams,
+    TyreModelParams, TyreParams,
+};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The tyre example, built into the tool: `mil run` without a file uses it.
+pub const DEFAULT_TYRE_CONFIG: &str = include_str!("../examples/tyre.toml");
+
+/// Which numerical model a run uses.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelKind {
+    /// Four point-follower tyres (hub-coupled rig), force demand per hub.
+    Tyre,
+    /// Aerodynamic down force (front and rear down-force actuators).
+    Aero,
+}
+
+/// A whole run configuration.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Timing of the run.
+    pub run: RunSection,
+    /// Model selector.
+    pub model: ModelSection,
+    /// Tyre parameters (used when `model.kind = "tyre"`), the same for every wheel.
+    pub tyre: Option<TyreSection>,
+    /// Aero parameters (used when `model.kind = "aero"`).
+    pub aero: Option<AeroSection>,
+    /// Demand limits and the safe state, the same for every channel.
+    pub limits: LimitsSection,
+    /// Road input.
+    pub input: RoadInput,
+    /// Folder of the configuration file (for relative paths); not read from TOML.
+    #[serde(skip)]
+    pub base: PathBuf,
+}
+
+/// `[run]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSection {
+    /// Control loop rate (Hz); the controller's sample period is its inverse.
+    pub sample_rate_hz: f64,
+    /// Length of the run (s).
+    pub duration_s: f64,
+}
+
+/// `[model]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSection {
+    /// The model.
+    pub kind: ModelKind,
+}
+
+/// `[tyre]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TyreSection {
+    /// Radial stiffness (N/m).
+    pub stiffness_n_per_m: f32,
+    /// Radial damping (N s/m).
+    pub damping_n_s_per_m: f32,
+    /// Static wheel load (N).
+    pub static_load_n: f32,
+    /// Whether the tyre force is limited to pushing (wheel lift-off).
+    pub lift_off: bool,
+    /// Cut-off of the deflection-velocity low-pass (Hz), 0 for none.
+    pub velocity_cutoff_hz: f32,
+}
+
+/// `[aero]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AeroSection {
+    /// `K_i` rows `[F_z; M_θ]`, columns `[z; θ]` (N/m, N/rad; N m/m, N m/rad).
+    pub stiffness: [[f32; 2]; 2],
+    /// `F_n = [F_z (N), M_θ (N m)]` at zero displacement and the reference speed.
+    pub nominal_force: [f32; 2],
+    /// Reference speed of `stiffness` and `nominal_force` (m/s).
+    pub reference_speed_m_per_s: f32,
+    /// Centroid to front axle (m).
+    pub front_axle_m: f32,
+    /// Centroid to rear axle (m).
+    pub rear_axle_m: f32,
+    /// Vehicle speed during the run (m/s).
+    pub speed_m_per_s: f32,
+}
+
+/// `[limits]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LimitsSection {
+    /// Lowest demand (N).
+    pub min: f32,
+    /// Highest demand (N).
+    pub max: f32,
+    /// Largest demand rate in normal running (N/s).
+    pub rate_per_s: f32,
+    /// Demand in the safe state (N).
+    pub safe_demand: f32,
+    /// Ramp rate to the safe demand (N/s).
+    pub safe_ramp_rate_per_s: f32,
+}
+
+/// A configuration turned into model-core parameters, validated by model-core itself.
+#[derive(Clone, Debug)]
+pub enum Validated {
+    /// Four tyre channels.
+    Tyre(Box<PreparedParams<model_core::TyreModel<4>, 4>>),
+    /// Two aero channels, with the run's constant speed (m/s).
+    Aero(Box<PreparedParams<model_core::AeroModel, 2>>, f32),
+}
+
+impl Config {
+    /// Parses TOML text; `base` is the folder relative paths refer to.
+    pub fn from_toml(text: &str, base: &Path) -> Result<Self> {
+        let mut c: Config = toml::from_str(text).context("invalid run configuration")?;
+        c.base = base.to_path_buf();
+        Ok(c)
+    }
+
+    /// Reads and parses a configuration file.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Self::from_toml(&text, &base).with_context(|| format!("in {}", path.display()))
+    }
+
+    /// Number of actuator channels of the configured model.
+    pub fn channels(&self) -> usize {
+        match self.model.kind {
+            ModelKind::Tyre => 4,
+            ModelKind::Aero => 2,
+        }
+    }
+
+    /// Number of samples of the run.
+    pub fn samples(&self) -> usize {
+        (self.run.duration_s * self.run.sample_rate_hz).round() as usize
+    }
+
+    /// Validates everything and builds the controller's parameter set.
+    pub fn validate(&self) -> Result<Validated> {
+        let fs = self.run.sample_rate_hz;
+        if !(fs.is_finite() && (100.0..=20_000.0).contains(&fs)) {
+            bail!("run.sample_rate_hz must be in [100, 20000] Hz, got {fs}");
+        }
+        let d = self.run.duration_s;
+        if !(d.is_finite() && d > 0.0 && d <= 3600.0) {
+            bail!("run.duration_s must be in (0, 3600] s, got {d}");
+        }
+        self.input.validate(fs)?;
+        let dt = (1.0 / fs) as f32;
+        let l = &self.limits;
+        let limits = DemandLimits {
+            min: l.min,
+            max: l.max,
+            rate: l.rate_per_s,
+        };
+        let param_error = |e: model_core::ParamError| {
+            anyhow::anyhow!("parameter rejected: {e:?} (field {:?})", e.field())
+        };
+        match self.model.kind {
+            ModelKind::Tyre => {
+                let t = self
+                    .tyre
+                    .as_ref()
+                    .context("model.kind = \"tyre\" needs a [tyre] table")?;
+                let tyre = TyreParams {
+                    stiffness: t.stiffness_n_per_m,
+                    damping: t.damping_n_s_per_m,
+                    static_load: t.static_load_n,
+                    lift_off: u32::from(t.lift_off),
+                    velocity_cutoff_hz: t.velocity_cutoff_hz,
+                };
+                let params = ControllerParams {
+                    model: TyreModelParams { tyre: [tyre; 4] },
+                    filter: [CascadeCoefficients::IDENTITY; 4],
+                    limits: [limits; 4],
+                    safe_demand: [l.safe_demand; 4],
+                    safe_ramp_rate: [l.safe_ramp_rate_per_s; 4],
+                };
+                PreparedParams::new(&params, dt)
+                    .map(|p| Validated::Tyre(Box::new(p)))
+                    .map_err(param_error)
+            }
+            ModelKind::Aero => {
+                let a = self
+                    .aero
+                    .as_ref()
+                    .context("model.kind = \"aero\" needs an [aero] table")?;
+                let aero = AeroParams {
+                    stiffness: a.stiffness,
+                    nominal_force: a.nominal_force,
+                    reference_speed: a.reference_speed_m_per_s,
+                    front_axle: a.front_axle_m,
+                    rear_axle: a.rear_axle_m,
+                    ..AeroParams::PAPER
+                };
+                if !(a.speed_m_per_s.is_finite()
+                    && (0.0..=model_core::aero::AERO_MAX_SPEED).contains(&a.speed_m_per_s))
+                {
+                    bail!("aero.speed_m_per_s must be in [0, 150] m/s");
+                }
+                let params = ControllerParams {
+                    model: aero,
+                    filter: [CascadeCoefficients::IDENTITY; 2],
+                    limits: [limits; 2],
+                    safe_demand: [l.safe_demand; 2],
+                    safe_ramp_rate: [l.safe_ramp_rate_per_s; 2],
+                };
+                PreparedParams::new(&params, dt)
+                    .map(|p| Validated::Aero(Box::new(p), a.speed_m_per_s))
+                    .map_err(param_error)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_config_is_valid() {
+        let c = Config::from_toml(DEFAULT_TYRE_CONFIG, Path::new(".")).unwrap();
+        assert!(matches!(c.validate().unwrap(), Validated::Tyre(_)));
+    }
+
+    #[test]
+    fn typos_and_bad_values_are_rejected() {
+        let typo = DEFAULT_TYRE_CONFIG.replace("stiffness_n_per_m", "stifness_n_per_m");
+        assert!(Config::from_toml(&typo, Path::new(".")).is_err());
+        let negative =
+            DEFAULT_TYRE_CONFIG.replace("damping_n_s_per_m = 500.0", "damping_n_s_per_m = -1.0");
+        assert_ne!(negative, DEFAULT_TYRE_CONFIG);
+        let c = Config::from_toml(&negative, Path::new(".")).unwrap();
+        let err = c.validate().unwrap_err().to_string();
+        assert!(err.contains("TyreDamping"), "{err}");
+        let fast = DEFAULT_TYRE_CONFIG.replace("end_hz = 30.0", "end_hz = 3000.0");
+        assert_ne!(fast, DEFAULT_TYRE_CONFIG);
+        assert!(Config::from_toml(&fast, Path::new("."))
+            .unwrap()
+            .validate()
+            .is_err());
+    }
+}

@@ -1,0 +1,79 @@
+//! `mil`: the model-in-the-loop rig tool.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use mil::config::{Config, DEFAULT_TYRE_CONFIG};
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(
+    name = "mil",
+    version,
+    about = "Model-in-the-loop control for servo-hydraulic test rigs"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the real-time controller step over a road input (open-loop on a rigid rig until
+    /// the simulated rig exists). Without CONFIG the built-in tyre example runs.
+    Run {
+        /// Run configuration (TOML); see host-tools/mil/examples/.
+        config: Option<PathBuf>,
+        /// Output folder for run.csv and run.svg.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Print one JSON object with the summary instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Validate a run configuration and report the first problem.
+    Check {
+        /// Run configuration (TOML).
+        config: PathBuf,
+    },
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().command {
+        Command::Run { config, out, json } => {
+            let config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::from_toml(DEFAULT_TYRE_CONFIG, Path::new("."))?,
+            };
+            let bar = if json {
+                ProgressBar::hidden()
+            } else {
+                ProgressBar::new(1000).with_style(
+                    ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed}")
+                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                )
+            };
+            bar.set_message("running controller");
+            let result = mil::run(&config, |f| bar.set_position((f * 1000.0) as u64))?;
+            bar.finish_and_clear();
+            std::fs::create_dir_all(&out)?;
+            let csv = out.join("run.csv");
+            let svg = out.join("run.svg");
+            result.write_csv(&csv)?;
+            mil::plot::plot_run(&result, &svg)?;
+            if json {
+                println!("{}", serde_json::to_string(&result.summary)?);
+            } else {
+                print!("{}", result.table());
+                println!("time histories: {}", csv.display());
+                println!("plot:           {}", svg.display());
+            }
+            Ok(())
+        }
+        Command::Check { config } => {
+            Config::from_file(&config)?.validate()?;
+            println!("{}: valid", config.display());
+            Ok(())
+        }
+    }
+}
