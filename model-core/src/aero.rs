@@ -205,42 +205,82 @@ impl AeroParams {
     /// `[z, θ]` from the axle displacements `x_f`, `x_r` (m).
     #[inline]
     pub fn heave_pitch(&self, x_front: f32, x_rear: f32) -> [f32; 2] {
-        let wheelbase = self.front_axle + self.rear_axle;
-        [
-            (self.rear_axle * x_front + self.front_axle * x_rear) / wheelbase,
-            (x_rear - x_front) / wheelbase,
-        ]
+        heave_pitch(
+            self,
+            1.0 / (self.front_axle + self.rear_axle),
+            x_front,
+            x_rear,
+        )
     }
 
     /// Front and rear axle forces (N) from heave force `F_z` (N) and pitch moment `M_θ` (N m).
     #[inline]
     pub fn axle_forces(&self, f_z: f32, m_theta: f32) -> [f32; 2] {
-        let wheelbase = self.front_axle + self.rear_axle;
-        [
-            (self.rear_axle * f_z - m_theta) / wheelbase,
-            (self.front_axle * f_z + m_theta) / wheelbase,
-        ]
+        axle_forces(self, 1.0 / (self.front_axle + self.rear_axle), f_z, m_theta)
     }
 
     /// The model's axle forces (N, up positive) for axle displacements `x_f`, `x_r` (m) and
     /// speed `v` (m/s).
+    pub fn forces(&self, x_front: f32, x_rear: f32, speed: f32) -> [f32; 2] {
+        AeroPrepared::new(self).forces(x_front, x_rear, speed)
+    }
+}
+
+#[inline]
+fn heave_pitch(p: &AeroParams, inv_wheelbase: f32, x_front: f32, x_rear: f32) -> [f32; 2] {
+    [
+        (p.rear_axle * x_front + p.front_axle * x_rear) * inv_wheelbase,
+        (x_rear - x_front) * inv_wheelbase,
+    ]
+}
+
+#[inline]
+fn axle_forces(p: &AeroParams, inv_wheelbase: f32, f_z: f32, m_theta: f32) -> [f32; 2] {
+    [
+        (p.rear_axle * f_z - m_theta) * inv_wheelbase,
+        (p.front_axle * f_z + m_theta) * inv_wheelbase,
+    ]
+}
+
+/// Validated aero parameters with the reciprocals the step uses (no divisions at run time).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AeroPrepared {
+    /// The parameters.
+    pub params: AeroParams,
+    /// `1 / v_ref` (s/m).
+    pub inv_reference_speed: f32,
+    /// `1 / (l_f + l_r)` (1/m).
+    pub inv_wheelbase: f32,
+}
+
+impl AeroPrepared {
+    fn new(params: &AeroParams) -> Self {
+        Self {
+            params: *params,
+            inv_reference_speed: 1.0 / params.reference_speed,
+            inv_wheelbase: 1.0 / (params.front_axle + params.rear_axle),
+        }
+    }
+
+    /// Axle forces (N, up positive) for axle displacements `x_f`, `x_r` (m) and speed (m/s).
     #[inline]
     pub fn forces(&self, x_front: f32, x_rear: f32, speed: f32) -> [f32; 2] {
-        let ratio = speed / self.reference_speed;
+        let p = &self.params;
+        let ratio = speed * self.inv_reference_speed;
         let q = ratio * ratio;
-        if self.use_map == 1 {
-            let (d_f, d_r) = self.map.down_force(
-                self.map.static_front_height + x_front,
-                self.map.static_rear_height + x_rear,
+        if p.use_map == 1 {
+            let (d_f, d_r) = p.map.down_force(
+                p.map.static_front_height + x_front,
+                p.map.static_rear_height + x_rear,
             );
             [-q * d_f, -q * d_r]
         } else {
-            let [z, theta] = self.heave_pitch(x_front, x_rear);
-            let [[k11, k12], [k21, k22]] = self.stiffness;
-            let [f_n, m_n] = self.nominal_force;
+            let [z, theta] = heave_pitch(p, self.inv_wheelbase, x_front, x_rear);
+            let [[k11, k12], [k21, k22]] = p.stiffness;
+            let [f_n, m_n] = p.nominal_force;
             let f_z = q * (k11 * z + k12 * theta + f_n);
             let m_theta = q * (k21 * z + k22 * theta + m_n);
-            self.axle_forces(f_z, m_theta)
+            axle_forces(p, self.inv_wheelbase, f_z, m_theta)
         }
     }
 }
@@ -251,12 +291,12 @@ pub struct AeroModel;
 
 impl Model<2> for AeroModel {
     type Params = AeroParams;
-    type Prepared = AeroParams;
+    type Prepared = AeroPrepared;
 
     fn prepare(params: &Self::Params, dt: f32) -> Result<Self::Prepared, ParamError> {
         crate::params::check_sample_period(dt)?;
         params.validate()?;
-        Ok(*params)
+        Ok(AeroPrepared::new(params))
     }
 
     fn new() -> Self {

@@ -274,6 +274,16 @@ impl CascadeState {
     pub fn is_finite(&self) -> bool {
         self.section.iter().all(BiquadState::is_finite)
     }
+
+    /// `true` when the accumulators of the sections `coefficients` applies are finite (the
+    /// others never change).
+    #[inline]
+    pub fn is_finite_for(&self, coefficients: &CascadeCoefficients) -> bool {
+        self.section
+            .iter()
+            .take(coefficients.active().len())
+            .all(BiquadState::is_finite)
+    }
 }
 
 /// A cascade with its own coefficients and state, for use outside the controller.

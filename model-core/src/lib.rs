@@ -36,7 +36,7 @@ pub mod substructure;
 pub mod tyre;
 pub mod velocity;
 
-pub use aero::{AeroModel, AeroParams, RideHeightMap};
+pub use aero::{AeroModel, AeroParams, AeroPrepared, RideHeightMap};
 pub use biquad::{BiquadCoefficients, BiquadState, Cascade, CascadeCoefficients, CascadeState};
 pub use controller::{
     fault, Controller, ControllerParams, Mode, Model, ModelInput, PreparedParams, Status,
