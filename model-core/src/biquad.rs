@@ -270,19 +270,16 @@ impl CascadeState {
         state
     }
 
-    /// `true` when every accumulator is finite.
-    pub fn is_finite(&self) -> bool {
-        self.section.iter().all(BiquadState::is_finite)
-    }
-
-    /// `true` when the accumulators of the sections `coefficients` applies are finite (the
-    /// others never change).
+    /// `true` when every accumulator is finite. Branch-free: NaN and infinities propagate
+    /// through the sum (a finite sum that overflows also reports `false`, which only happens
+    /// with accumulators near `f32::MAX`, i.e. a filter that has blown up anyway).
     #[inline]
-    pub fn is_finite_for(&self, coefficients: &CascadeCoefficients) -> bool {
+    pub fn is_finite(&self) -> bool {
         self.section
             .iter()
-            .take(coefficients.active().len())
-            .all(BiquadState::is_finite)
+            .map(|s| s.s1 + s.s2)
+            .sum::<f32>()
+            .is_finite()
     }
 }
 

@@ -453,11 +453,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         }
         let finite = out.iter().all(|v| v.is_finite())
             && self.model.is_finite()
-            && self
-                .filter
-                .iter()
-                .zip(&prepared.params.filter)
-                .all(|(state, coeffs)| state.is_finite_for(coeffs));
+            && self.filter.iter().all(CascadeState::is_finite);
         if finite {
             Some(out)
         } else {

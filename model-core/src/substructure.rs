@@ -738,12 +738,16 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
     }
 
     fn is_finite(&self) -> bool {
-        self.state.iter().all(|v| v.is_finite())
-            && self
+        // Branch-free: NaN and infinities propagate through the sum.
+        let states: f32 = self.state.iter().sum();
+        (states
+            + self
                 .signal_rate
                 .iter()
                 .chain(&self.signal_acceleration)
                 .chain(&self.road_rate)
-                .all(VelocityEstimator::is_finite)
+                .map(VelocityEstimator::sum)
+                .sum::<f32>())
+        .is_finite()
     }
 }

@@ -78,6 +78,13 @@ impl VelocityEstimator {
         self.velocity
     }
 
+    /// Sum of the state values: finite exactly when the state is (up to overflow of the
+    /// sum itself), for branch-free checks over many estimators.
+    #[inline]
+    pub fn sum(&self) -> f32 {
+        self.last_position + self.velocity
+    }
+
     /// `true` when the state is finite.
     pub fn is_finite(&self) -> bool {
         self.last_position.is_finite() && self.velocity.is_finite()

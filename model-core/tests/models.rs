@@ -197,21 +197,21 @@ const LIM: TwoDof = TwoDof {
     c_i: 5.0,
 };
 
+/// Adds a spring `k` and damper `c` between DOFs `i` and `j` to the network matrices.
+fn couple<const CH: usize>(p: &mut SubstructureParams<CH>, i: usize, j: usize, k: f64, c: f64) {
+    for (a, b, sign) in [(i, i, 1.0), (j, j, 1.0), (i, j, -1.0), (j, i, -1.0)] {
+        p.stiffness[a][b] += (sign * k) as f32;
+        p.damping[a][b] += (sign * c) as f32;
+    }
+}
+
 /// The emulated (whole) system as one 2-DOF substructure, road inputs on both masses.
 fn emulated_params() -> SubstructureParams<2> {
     let s = LIM;
     let mut p = SubstructureParams::<2>::zeroed(2, Causality::Admittance);
     p.mass[0][0] = s.m_n as f32;
     p.mass[1][1] = s.m_p as f32;
-    p.stiffness = [[0.0; 6]; 6];
-    p.stiffness[0][0] = s.k_i as f32;
-    p.stiffness[1][1] = s.k_i as f32;
-    p.stiffness[0][1] = -s.k_i as f32;
-    p.stiffness[1][0] = -s.k_i as f32;
-    p.damping[0][0] = s.c_i as f32;
-    p.damping[1][1] = s.c_i as f32;
-    p.damping[0][1] = -s.c_i as f32;
-    p.damping[1][0] = -s.c_i as f32;
+    couple(&mut p, 0, 1, s.k_i, s.c_i);
     p.ground_stiffness[0][0] = s.k_n as f32;
     p.ground_damping[0][0] = s.c_n as f32;
     p.ground_stiffness[1][1] = s.k_p as f32;

@@ -48,6 +48,31 @@ struct MinuteStats {
     n: usize,
 }
 
+/// Runs `MINUTES` minutes of samples; `sample` returns `(f32 output - f64 reference, f64
+/// reference)` per output value, summed into per-minute statistics.
+fn run_minutes(mut sample: impl FnMut(&mut MinuteStats)) -> Vec<MinuteStats> {
+    (0..MINUTES)
+        .map(|_| {
+            let mut s = MinuteStats {
+                err2: 0.0,
+                ref2: 0.0,
+                n: PER_MINUTE,
+            };
+            for _ in 0..PER_MINUTE {
+                sample(&mut s);
+            }
+            s
+        })
+        .collect()
+}
+
+impl MinuteStats {
+    fn add(&mut self, err: f64, reference: f64) {
+        self.err2 += err * err;
+        self.ref2 += reference * reference;
+    }
+}
+
 fn check(label: &str, minutes: &[MinuteStats]) {
     let rel: Vec<f64> = minutes
         .iter()
@@ -132,37 +157,24 @@ fn substructure_f32_does_not_drift_from_f64_over_10_minutes() {
 
     let mut road = Excitation { k: 0, seed: 1 };
     let mut force = Excitation { k: 17, seed: 2 };
-    let mut minutes = Vec::new();
-    for _ in 0..MINUTES {
-        let mut s = MinuteStats {
-            err2: 0.0,
-            ref2: 0.0,
-            n: PER_MINUTE,
+    let minutes = run_minutes(|s| {
+        let z = 0.01 * road.next(); // m
+        let f = 200.0 * force.next(); // N
+                                      // Inputs are rounded to f32 once, as they would arrive over the bus; the reference
+                                      // uses the same rounded values so only the arithmetic differs.
+        let (zf, ff) = (z as f32, f as f32);
+        let input = ModelInput {
+            force: [ff, 0.0],
+            road: [zf, 0.0],
+            ..ModelInput::default()
         };
-        for _ in 0..PER_MINUTE {
-            let z = 0.01 * road.next(); // m
-            let f = 200.0 * force.next(); // N
-                                          // Inputs are rounded to f32 once, as they would arrive over the bus; the
-                                          // reference uses the same rounded values so only the arithmetic differs.
-            let (zf, ff) = (z as f32, f as f32);
-            let y = model.step(
-                &prepared,
-                &ModelInput {
-                    force: [ff, 0.0],
-                    road: [zf, 0.0],
-                    ..ModelInput::default()
-                },
-            );
-            let u = DVector::from_vec(vec![f64::from(ff), 0.0, f64::from(zf), 0.0]);
-            let y_ref = reference.step(&u);
-            for ch in 0..2 {
-                let e = f64::from(y[ch]) - y_ref[ch];
-                s.err2 += e * e;
-                s.ref2 += y_ref[ch] * y_ref[ch];
-            }
+        let y = model.step(&prepared, &input);
+        let u = DVector::from_vec(vec![f64::from(ff), 0.0, f64::from(zf), 0.0]);
+        let y_ref = reference.step(&u);
+        for (y, r) in y.iter().zip(y_ref.iter()) {
+            s.add(f64::from(*y) - r, *r);
         }
-        minutes.push(s);
-    }
+    });
     check("2-DOF substructure", &minutes);
 }
 
@@ -194,21 +206,11 @@ fn command_filter_f32_does_not_drift_from_f64_over_10_minutes() {
         x: DVector::zeros(n),
     };
     let mut input = Excitation { k: 0, seed: 3 };
-    let mut minutes = Vec::new();
-    for _ in 0..MINUTES {
-        let mut s = MinuteStats {
-            err2: 0.0,
-            ref2: 0.0,
-            n: PER_MINUTE,
-        };
-        for _ in 0..PER_MINUTE {
-            let u = input.next() as f32;
-            let y = f64::from(filter.step(u));
-            let y_ref = reference.step(&DVector::from_vec(vec![f64::from(u)]))[0];
-            s.err2 += (y - y_ref).powi(2);
-            s.ref2 += y_ref * y_ref;
-        }
-        minutes.push(s);
-    }
+    let minutes = run_minutes(|s| {
+        let u = input.next() as f32;
+        let y = f64::from(filter.step(u));
+        let y_ref = reference.step(&DVector::from_vec(vec![f64::from(u)]))[0];
+        s.add(y - y_ref, y_ref);
+    });
     check("1 Hz + 30 Hz command filter", &minutes);
 }

@@ -40,7 +40,7 @@
 //!
 //! ```text
 //! step-bench calibration: 2000000 instructions = 2688000 SysTick counts (0.7440 instructions/count), empty window 1.00 instructions
-//! step-bench tyre4: 759.0 instructions/step (2000 steps), controller 812 bytes, first step 979, max 759, 1021.4 SysTick counts/step
+//! step-bench tyre4: 625.0 instructions/step (2000 steps), controller 812 bytes, first step 845, max 625, 841.3 SysTick counts/step
 //! ```
 //!
 //! `first step` is the first call after `start()` (it resets the model and the filter); `max`
