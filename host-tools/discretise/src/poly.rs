@@ -201,6 +201,18 @@ pub(crate) struct Conjugates {
 }
 
 impl Conjugates {
+    /// Adds the conjugate pair `m`, `m̄`: stored by its upper-half-plane member, or as a
+    /// double real root when `m` is real.
+    fn push_pair(&mut self, m: Complex64) {
+        if m.im == 0.0 {
+            self.reals.extend([m.re, m.re]);
+        } else if m.im > 0.0 {
+            self.pairs.push(m);
+        } else {
+            self.pairs.push(m.conj());
+        }
+    }
+
     /// Number of roots (each pair counts twice).
     pub fn len(&self) -> usize {
         self.reals.len() + 2 * self.pairs.len()
@@ -227,14 +239,7 @@ impl Conjugates {
             pairs: Vec::with_capacity(self.pairs.len()),
         };
         for &p in &self.pairs {
-            let m = f(p);
-            if m.im == 0.0 {
-                out.reals.extend([m.re, m.re]);
-            } else if m.im > 0.0 {
-                out.pairs.push(m);
-            } else {
-                out.pairs.push(m.conj());
-            }
+            out.push_pair(f(p));
         }
         out
     }
@@ -340,14 +345,7 @@ pub(crate) fn symmetrise(mut rest: Vec<Complex64>) -> Conjugates {
         match partner {
             Some((j, d)) if d < r.im.abs() => {
                 let other = rest.swap_remove(j);
-                let m = (r + other.conj()) * 0.5;
-                if m.im == 0.0 {
-                    out.reals.extend([m.re, m.re]);
-                } else if m.im > 0.0 {
-                    out.pairs.push(m);
-                } else {
-                    out.pairs.push(m.conj());
-                }
+                out.push_pair((r + other.conj()) * 0.5);
             }
             _ => out.reals.push(r.re),
         }
