@@ -274,6 +274,34 @@ fn two_dof_natural_frequencies_match_analytic() {
     println!("2-DOF natural frequencies: {f:?} Hz, analytic {analytic:?} Hz");
 }
 
+/// Advances `x` by `dt` with `substeps` classical Runge-Kutta steps of `ẋ = f(τ, x)`, τ the
+/// time into the interval.
+fn rk4<const N: usize>(
+    x: &mut [f64; N],
+    dt: f64,
+    substeps: usize,
+    f: impl Fn(f64, &[f64; N]) -> [f64; N],
+) {
+    let h = dt / substeps as f64;
+    let shifted = |x: &[f64; N], k: &[f64; N], s: f64| -> [f64; N] {
+        let mut out = *x;
+        for (o, d) in out.iter_mut().zip(k) {
+            *o += s * d;
+        }
+        out
+    };
+    for i in 0..substeps {
+        let t = i as f64 * h;
+        let k1 = f(t, x);
+        let k2 = f(t + 0.5 * h, &shifted(x, &k1, 0.5 * h));
+        let k3 = f(t + 0.5 * h, &shifted(x, &k2, 0.5 * h));
+        let k4 = f(t + h, &shifted(x, &k3, h));
+        for (j, xj) in x.iter_mut().enumerate() {
+            *xj += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+        }
+    }
+}
+
 /// Reference for the physical part: m_p with k_p, c_p to ground (road z_p = 0) and an
 /// interface force `force(τ, x, v)` (τ: time into the sample), RK4 with 20 sub-steps.
 struct PhysicalMass {
@@ -284,23 +312,11 @@ struct PhysicalMass {
 impl PhysicalMass {
     fn step(&mut self, force: impl Fn(f64, f64, f64) -> f64, dt: f64) {
         let s = LIM;
-        let h = dt / 20.0;
-        let acc = |t: f64, x: f64, v: f64| (force(t, x, v) - s.k_p * x - s.c_p * v) / s.m_p;
-        for i in 0..20 {
-            let (t, x, v) = (i as f64 * h, self.x, self.v);
-            let (k1x, k1v) = (v, acc(t, x, v));
-            let (k2x, k2v) = (
-                v + 0.5 * h * k1v,
-                acc(t + 0.5 * h, x + 0.5 * h * k1x, v + 0.5 * h * k1v),
-            );
-            let (k3x, k3v) = (
-                v + 0.5 * h * k2v,
-                acc(t + 0.5 * h, x + 0.5 * h * k2x, v + 0.5 * h * k2v),
-            );
-            let (k4x, k4v) = (v + h * k3v, acc(t + h, x + h * k3x, v + h * k3v));
-            self.x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-            self.v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-        }
+        let mut state = [self.x, self.v];
+        rk4(&mut state, dt, 20, |t, &[x, v]| {
+            [v, (force(t, x, v) - s.k_p * x - s.c_p * v) / s.m_p]
+        });
+        [self.x, self.v] = state;
     }
 }
 
@@ -321,6 +337,17 @@ fn emulated_response(steps: usize) -> Vec<f64> {
 
 fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Asserts that the MiL history stays within `bound` relative RMS of the emulated one.
+fn assert_close_to_emulated(label: &str, mil: &[f64], emulated: &[f64], bound: f64) {
+    let err: Vec<f64> = mil.iter().zip(emulated).map(|(a, b)| a - b).collect();
+    let rel = rms(&err) / rms(emulated);
+    println!(
+        "{label}: MiL vs emulated response, RMS error {:.3} %",
+        100.0 * rel
+    );
+    assert!(rel < bound, "{label}: relative RMS error {rel} >= {bound}");
 }
 
 /// Case 1 (interface impedance physical, ideal position-controlled actuator): the numerical
@@ -385,13 +412,7 @@ fn mil_cases_1_and_4_with_ideal_actuators_match_emulated_system() {
                 other => unreachable!("{other:?} is tested separately"),
             }
         }
-        let err: Vec<f64> = hist.iter().zip(&emulated).map(|(a, b)| a - b).collect();
-        let rel = rms(&err) / rms(&emulated);
-        println!(
-            "{causality:?}: MiL vs emulated physical-mass response, RMS error {:.3} %",
-            100.0 * rel
-        );
-        assert!(rel < 0.03, "{causality:?}: relative RMS error {rel}");
+        assert_close_to_emulated(&format!("{causality:?}"), &hist, &emulated, 0.03);
     }
 }
 
@@ -410,34 +431,16 @@ fn mil_case_3_with_position_actuator_matches_emulated_system() {
     // Emulated: m_n on (k_n, c_n) to the road, node x_p between B_i and (k_p, c_p). The node is
     // massless: c_i (ẋ_n - ẋ_p) + k_i (x_n - x_p) = k_p x_p + c_p ẋ_p. RK4, 40 sub-steps.
     let z = 0.005;
-    let deriv = |x_n: f64, v_n: f64, x_p: f64| {
+    let deriv = |_: f64, &[x_n, v_n, x_p]: &[f64; 3]| {
         let v_p = (s.c_i * v_n + s.k_i * (x_n - x_p) - k_p * x_p) / (s.c_i + c_p);
         let f_i = k_p * x_p + c_p * v_p;
-        let a_n = (s.k_n * (z - x_n) - s.c_n * v_n - f_i) / s.m_n;
-        (v_n, a_n, v_p)
+        [v_n, (s.k_n * (z - x_n) - s.c_n * v_n - f_i) / s.m_n, v_p]
     };
-    let (mut x_n, mut v_n, mut x_p) = (0.0f64, 0.0f64, 0.0f64);
+    let mut state = [0.0f64; 3];
     let mut emulated = Vec::with_capacity(steps);
-    let h = dt / 40.0;
     for _ in 0..steps {
-        emulated.push(x_p);
-        for _ in 0..40 {
-            let k1 = deriv(x_n, v_n, x_p);
-            let k2 = deriv(
-                x_n + 0.5 * h * k1.0,
-                v_n + 0.5 * h * k1.1,
-                x_p + 0.5 * h * k1.2,
-            );
-            let k3 = deriv(
-                x_n + 0.5 * h * k2.0,
-                v_n + 0.5 * h * k2.1,
-                x_p + 0.5 * h * k2.2,
-            );
-            let k4 = deriv(x_n + h * k3.0, v_n + h * k3.1, x_p + h * k3.2);
-            x_n += h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
-            v_n += h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
-            x_p += h / 6.0 * (k1.2 + 2.0 * k2.2 + 2.0 * k3.2 + k4.2);
-        }
+        emulated.push(state[2]);
+        rk4(&mut state, dt, 40, deriv);
     }
 
     let mut case3 = SubstructureParams::<1>::zeroed(1, Causality::AdmittanceThroughImpedance);
@@ -456,41 +459,24 @@ fn mil_case_3_with_position_actuator_matches_emulated_system() {
     );
     let mut model = SubstructureModel::<1>::new();
     let w = 2.0 * std::f64::consts::PI * 500.0;
-    let (mut xa, mut va) = (0.0f64, 0.0f64);
+    let mut actuator = [0.0f64; 2]; // position, velocity
     let mut measured = 0.0f64;
     let mut hist = Vec::with_capacity(steps);
     for _ in 0..steps {
-        hist.push(xa);
+        hist.push(actuator[0]);
         let input = ModelInput {
             force: [measured as f32],
             road: [z as f32],
             ..ModelInput::default()
         };
         let demand = f64::from(model.step(&p3, &input)[0]);
-        let acc = |x: f64, v: f64| w * w * (demand - x) - 2.0 * w * v;
-        for _ in 0..40 {
-            let (k1x, k1v) = (va, acc(xa, va));
-            let (k2x, k2v) = (
-                va + 0.5 * h * k1v,
-                acc(xa + 0.5 * h * k1x, va + 0.5 * h * k1v),
-            );
-            let (k3x, k3v) = (
-                va + 0.5 * h * k2v,
-                acc(xa + 0.5 * h * k2x, va + 0.5 * h * k2v),
-            );
-            let (k4x, k4v) = (va + h * k3v, acc(xa + h * k3x, va + h * k3v));
-            xa += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-            va += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-        }
+        rk4(&mut actuator, dt, 40, |_, &[x, v]| {
+            [v, w * w * (demand - x) - 2.0 * w * v]
+        });
+        let [xa, va] = actuator;
         measured = k_p * xa + c_p * va;
     }
-    let err: Vec<f64> = hist.iter().zip(&emulated).map(|(a, b)| a - b).collect();
-    let rel = rms(&err) / rms(&emulated);
-    println!(
-        "case 3: MiL vs emulated interface response, RMS error {:.3} %",
-        100.0 * rel
-    );
-    assert!(rel < 0.03, "case 3: relative RMS error {rel}");
+    assert_close_to_emulated("case 3", &hist, &emulated, 0.03);
 }
 
 /// Case 2 (B_i on the physical side, force-controlled actuator), realised in prescribed-motion
@@ -531,13 +517,7 @@ fn mil_case_2_prescribed_motion_matches_emulated_system() {
         let demand = f64::from(model.step(&p2, &input)[0]);
         phys.step(|_, _, _| demand, dt);
     }
-    let err: Vec<f64> = hist.iter().zip(&emulated).map(|(a, b)| a - b).collect();
-    let rel = rms(&err) / rms(&emulated);
-    println!(
-        "case 2: MiL vs emulated physical-mass response, RMS error {:.3} %",
-        100.0 * rel
-    );
-    assert!(rel < 0.03, "case 2: relative RMS error {rel}");
+    assert_close_to_emulated("case 2", &hist, &emulated, 0.03);
 }
 
 /// Prescribed motion with an interface mass: for x = X sin ωt imposed on a single DOF

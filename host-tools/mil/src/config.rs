@@ -114,6 +114,24 @@ pub struct LimitsSection {
     pub safe_ramp_rate_per_s: f32,
 }
 
+impl LimitsSection {
+    /// The controller's parameter set for `model`, with these limits and safe state on every
+    /// channel and no command filter.
+    pub fn params<P, const CH: usize>(&self, model: P) -> ControllerParams<P, CH> {
+        ControllerParams {
+            model,
+            filter: [CascadeCoefficients::IDENTITY; CH],
+            limits: [DemandLimits {
+                min: self.min,
+                max: self.max,
+                rate: self.rate_per_s,
+            }; CH],
+            safe_demand: [self.safe_demand; CH],
+            safe_ramp_rate: [self.safe_ramp_rate_per_s; CH],
+        }
+    }
+}
+
 /// A configuration turned into model-core parameters, validated by model-core itself.
 #[derive(Clone, Debug)]
 pub enum Validated {
@@ -165,11 +183,6 @@ impl Config {
         self.input.validate(fs)?;
         let dt = (1.0 / fs) as f32;
         let l = &self.limits;
-        let limits = DemandLimits {
-            min: l.min,
-            max: l.max,
-            rate: l.rate_per_s,
-        };
         let param_error = |e: model_core::ParamError| {
             anyhow::anyhow!("parameter rejected: {e:?} (field {:?})", e.field())
         };
@@ -186,14 +199,7 @@ impl Config {
                     lift_off: u32::from(t.lift_off),
                     velocity_cutoff_hz: t.velocity_cutoff_hz,
                 };
-                let params = ControllerParams {
-                    model: TyreModelParams { tyre: [tyre; 4] },
-                    filter: [CascadeCoefficients::IDENTITY; 4],
-                    limits: [limits; 4],
-                    safe_demand: [l.safe_demand; 4],
-                    safe_ramp_rate: [l.safe_ramp_rate_per_s; 4],
-                };
-                PreparedParams::new(&params, dt)
+                PreparedParams::new(&l.params(TyreModelParams { tyre: [tyre; 4] }), dt)
                     .map(|p| Validated::Tyre(Box::new(p)))
                     .map_err(param_error)
             }
@@ -215,14 +221,7 @@ impl Config {
                 {
                     bail!("aero.speed_m_per_s must be in [0, 150] m/s");
                 }
-                let params = ControllerParams {
-                    model: aero,
-                    filter: [CascadeCoefficients::IDENTITY; 2],
-                    limits: [limits; 2],
-                    safe_demand: [l.safe_demand; 2],
-                    safe_ramp_rate: [l.safe_ramp_rate_per_s; 2],
-                };
-                PreparedParams::new(&params, dt)
+                PreparedParams::new(&l.params(aero), dt)
                     .map(|p| Validated::Aero(Box::new(p), a.speed_m_per_s))
                     .map_err(param_error)
             }
