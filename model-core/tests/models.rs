@@ -302,6 +302,22 @@ fn rk4<const N: usize>(
     }
 }
 
+/// The numerical part of the 2-DOF example: m_n (DOF 0) on k_n, c_n to the road of channel
+/// 0, and the interface impedance B_i = (k_i, c_i) at DOF 0, with `dof` DOFs in all.
+fn numerical_part(dof: u32, causality: Causality) -> SubstructureParams<1> {
+    let s = LIM;
+    let mut p = SubstructureParams::<1>::zeroed(dof, causality);
+    p.mass[0][0] = s.m_n as f32;
+    p.ground_stiffness[0][0] = s.k_n as f32;
+    p.ground_damping[0][0] = s.c_n as f32;
+    p.interface[0] = model_core::InterfaceParams {
+        dof: 0,
+        stiffness: s.k_i as f32,
+        damping: s.c_i as f32,
+    };
+    p
+}
+
 /// Reference for the physical part: m_p with k_p, c_p to ground (road z_p = 0) and an
 /// interface force `force(τ, x, v)` (τ: time into the sample), RK4 with 20 sub-steps.
 struct PhysicalMass {
@@ -363,15 +379,7 @@ fn mil_cases_1_and_4_with_ideal_actuators_match_emulated_system() {
     let emulated = emulated_response(steps);
     let dt = f64::from(DT);
 
-    let mut numerical = SubstructureParams::<1>::zeroed(1, Causality::Admittance);
-    numerical.mass[0][0] = s.m_n as f32;
-    numerical.ground_stiffness[0][0] = s.k_n as f32;
-    numerical.ground_damping[0][0] = s.c_n as f32;
-    numerical.interface[0] = model_core::InterfaceParams {
-        dof: 0,
-        stiffness: s.k_i as f32,
-        damping: s.c_i as f32,
-    };
+    let numerical = numerical_part(1, Causality::Admittance);
 
     for causality in [Causality::Admittance, Causality::Impedance] {
         let params = SubstructureParams {
@@ -443,15 +451,7 @@ fn mil_case_3_with_position_actuator_matches_emulated_system() {
         rk4(&mut state, dt, 40, deriv);
     }
 
-    let mut case3 = SubstructureParams::<1>::zeroed(1, Causality::AdmittanceThroughImpedance);
-    case3.mass[0][0] = s.m_n as f32;
-    case3.ground_stiffness[0][0] = s.k_n as f32;
-    case3.ground_damping[0][0] = s.c_n as f32;
-    case3.interface[0] = model_core::InterfaceParams {
-        dof: 0,
-        stiffness: s.k_i as f32,
-        damping: s.c_i as f32,
-    };
+    let case3 = numerical_part(1, Causality::AdmittanceThroughImpedance);
     let p3 = SubstructureModel::<1>::prepare(&case3, DT).unwrap();
     assert_eq!(
         p3.states, 3,
@@ -490,18 +490,9 @@ fn mil_case_2_prescribed_motion_matches_emulated_system() {
     let steps = 5000;
     let emulated = emulated_response(steps);
     let dt = f64::from(DT);
-    let mut case2 = SubstructureParams::<1>::zeroed(2, Causality::PrescribedMotion);
-    case2.mass[0][0] = s.m_n as f32;
-    case2.stiffness[0][0] = s.k_i as f32;
-    case2.stiffness[1][1] = s.k_i as f32;
-    case2.stiffness[0][1] = -s.k_i as f32;
-    case2.stiffness[1][0] = -s.k_i as f32;
-    case2.damping[0][0] = s.c_i as f32;
-    case2.damping[1][1] = s.c_i as f32;
-    case2.damping[0][1] = -s.c_i as f32;
-    case2.damping[1][0] = -s.c_i as f32;
-    case2.ground_stiffness[0][0] = s.k_n as f32;
-    case2.ground_damping[0][0] = s.c_n as f32;
+    // B_i becomes a spring-damper between m_n and a massless interface node (DOF 1).
+    let mut case2 = numerical_part(2, Causality::PrescribedMotion);
+    couple(&mut case2, 0, 1, s.k_i, s.c_i);
     case2.interface[0].dof = 1;
     let p2 = SubstructureModel::<1>::prepare(&case2, DT).unwrap();
     let mut model = SubstructureModel::<1>::new();
