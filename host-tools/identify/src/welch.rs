@@ -1,0 +1,309 @@
+//! H1 frequency-response estimation with Welch averaging and coherence.
+
+use num_complex::Complex64;
+use rustfft::FftPlanner;
+
+use crate::error::{IdentifyError, Result};
+use crate::table::FrfTable;
+
+/// One test record: the input (e.g. the force command) and the output (e.g. the measured
+/// force) of the system being identified, the same length, uniformly sampled at the rate
+/// given to [`h1_estimate`]. Units are the signals' own; the response has units
+/// output/input.
+#[derive(Debug, Clone, Copy)]
+pub struct Record<'a> {
+    /// Input samples.
+    pub input: &'a [f64],
+    /// Output samples, simultaneous with the input.
+    pub output: &'a [f64],
+}
+
+/// The data window applied to each Welch segment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Window {
+    /// Periodic Hann window `0.5 - 0.5 cos(2πn/L)`, `n = 0..L`: low leakage; the default.
+    #[default]
+    Hann,
+    /// No window (all ones): only for excitation that is periodic in the segment length.
+    Rectangular,
+}
+
+impl Window {
+    /// The window's `length` samples.
+    pub fn samples(self, length: usize) -> Vec<f64> {
+        match self {
+            Window::Hann => (0..length)
+                .map(|n| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * n as f64 / length as f64).cos())
+                .collect(),
+            Window::Rectangular => vec![1.0; length],
+        }
+    }
+}
+
+/// Options of the Welch averaging in [`h1_estimate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WelchOptions {
+    /// Samples per segment (>= 4). The frequency resolution is `sample_rate / segment_length`
+    /// (Hz); any length works, powers of two are fastest.
+    pub segment_length: usize,
+    /// Fraction of a segment shared with the next one, in `[0, 1)`; the hop between segment
+    /// starts is `round(segment_length · (1 - overlap))` samples (at least 1).
+    ///
+    /// The default 0.75 suits both record kinds. 0.5 is enough for stationary (noise)
+    /// records, but not for a sweep with the Hann window: with 50 % overlap the summed window weight `Σ w²` along the record varies
+    /// by ±33 %, and since each frequency of a sweep occurs at one time, and reaches the
+    /// output a group delay later, this biases the estimate near lightly damped modes (in the
+    /// crate's tests about 0.8 dB at a ζ = 0.05 mode, against 0.2 dB with 0.75).
+    pub overlap: f64,
+    /// Window applied to each segment after removing its mean.
+    pub window: Window,
+}
+
+impl Default for WelchOptions {
+    /// 4096-sample segments, 75 % overlap (right for sweep and noise records alike), Hann
+    /// window.
+    fn default() -> Self {
+        Self {
+            segment_length: 4096,
+            overlap: 0.75,
+            window: Window::Hann,
+        }
+    }
+}
+
+impl WelchOptions {
+    /// Checks the options; errors name the bad field.
+    pub fn validate(&self) -> Result<()> {
+        if self.segment_length < 4 {
+            return Err(IdentifyError::InvalidArgument(format!(
+                "segment_length {} is below 4 samples",
+                self.segment_length
+            )));
+        }
+        if !(self.overlap.is_finite() && (0.0..1.0).contains(&self.overlap)) {
+            return Err(IdentifyError::InvalidArgument(format!(
+                "overlap {} is outside [0, 1)",
+                self.overlap
+            )));
+        }
+        Ok(())
+    }
+
+    /// The hop between the starts of consecutive segments (samples).
+    pub fn hop(&self) -> usize {
+        ((self.segment_length as f64 * (1.0 - self.overlap)).round() as usize).max(1)
+    }
+}
+
+/// An H1 frequency-response estimate, one entry per frequency bin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrfEstimate {
+    /// Bin frequencies `k · sample_rate / segment_length` (Hz), `k = 1, 2, …` up to below
+    /// the Nyquist frequency (DC and the Nyquist bin are excluded).
+    pub frequency_hz: Vec<f64>,
+    /// H1 estimate `S_yu / S_uu` (output units per input unit); NaN in a bin where the
+    /// input has no power at all.
+    pub response: Vec<Complex64>,
+    /// Ordinary coherence `|S_yu|² / (S_uu S_yy)`, in `[0, 1]` (0 where a spectrum is 0).
+    pub coherence: Vec<f64>,
+    /// Number of segments averaged, over all records.
+    pub segments: usize,
+}
+
+impl FrfEstimate {
+    /// The points with frequency in `[f_min_hz, f_max_hz]` (Hz), a finite response and
+    /// coherence >= `min_coherence`, as a table (phase unwrapped, coherence column kept).
+    ///
+    /// Phase is unwrapped across the points kept: if the selection leaves gaps where the
+    /// phase changes by more than 180°, the unwrapped phase is ambiguous there.
+    ///
+    /// Give the excited band as `[f_min_hz, f_max_hz]`: just outside it the input holds only
+    /// the window's leakage from the band, and where the response is nearly flat the
+    /// coherence of such bins can still be close to 1 although their estimate is really the
+    /// response at the band's edge.
+    ///
+    /// Errors: invalid band or threshold; fewer than 2 points pass.
+    pub fn to_table(&self, f_min_hz: f64, f_max_hz: f64, min_coherence: f64) -> Result<FrfTable> {
+        if !(f_min_hz.is_finite() && f_max_hz.is_finite() && f_min_hz <= f_max_hz) {
+            return Err(IdentifyError::InvalidArgument(format!(
+                "frequency band [{f_min_hz}, {f_max_hz}] Hz is not a finite interval"
+            )));
+        }
+        if min_coherence.is_nan() {
+            return Err(IdentifyError::InvalidArgument(
+                "min_coherence is NaN".to_string(),
+            ));
+        }
+        let mut frequency = Vec::new();
+        let mut response = Vec::new();
+        let mut coherence = Vec::new();
+        for ((&f, &h), &c) in self
+            .frequency_hz
+            .iter()
+            .zip(&self.response)
+            .zip(&self.coherence)
+        {
+            if f >= f_min_hz
+                && f <= f_max_hz
+                && c >= min_coherence
+                && h.re.is_finite()
+                && h.im.is_finite()
+            {
+                frequency.push(f);
+                response.push(h);
+                coherence.push(c);
+            }
+        }
+        if frequency.len() < 2 {
+            return Err(IdentifyError::TooFewEstimatePoints {
+                count: frequency.len(),
+                f_min_hz,
+                f_max_hz,
+                min_coherence,
+            });
+        }
+        FrfTable::from_response(&frequency, &response, Some(&coherence))
+    }
+}
+
+fn check_record(index: usize, record: &Record<'_>, segment_length: usize) -> Result<()> {
+    if record.input.len() != record.output.len() {
+        return Err(IdentifyError::LengthMismatch {
+            record: index,
+            input: record.input.len(),
+            output: record.output.len(),
+        });
+    }
+    if record.input.len() < segment_length {
+        return Err(IdentifyError::RecordTooShort {
+            record: index,
+            samples: record.input.len(),
+            segment_length,
+        });
+    }
+    for (signal, data) in [("input", record.input), ("output", record.output)] {
+        if let Some((i, &v)) = data.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(IdentifyError::NonFinite {
+                record: index,
+                signal,
+                index: i,
+                value: v,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Fills `buffer` with the mean-removed, windowed segment.
+fn load_segment(buffer: &mut [Complex64], data: &[f64], window: &[f64]) {
+    let mean = data.iter().sum::<f64>() / data.len() as f64;
+    for ((b, &x), &w) in buffer.iter_mut().zip(data).zip(window) {
+        *b = Complex64::new((x - mean) * w, 0.0);
+    }
+}
+
+/// H1 frequency-response estimate from one or more records, with Welch averaging.
+///
+/// Every record is cut into segments of `options.segment_length` samples, consecutive
+/// segments overlapping by `options.overlap`; each segment of input `u` and output `y` has
+/// its mean removed, is windowed and Fourier transformed (`U_m`, `Y_m`). The spectra are
+/// summed over all segments of all records (so a sweep record and a noise record are
+/// averaged together, each segment with the weight of its own power):
+/// `S_uu = Σ|U_m|²`, `S_yy = Σ|Y_m|²`, `S_yu = Σ Y_m U_m*`; then `H1 = S_yu / S_uu` and the
+/// coherence `γ² = |S_yu|² / (S_uu S_yy)`. Scale factors cancel in both ratios.
+///
+/// `sample_rate_hz` (Hz) is the sampling rate of all records.
+///
+/// Errors: no records, bad sample rate or options, input and output of different lengths,
+/// a record shorter than one segment, a non-finite sample, an input without any variation.
+pub fn h1_estimate(
+    records: &[Record<'_>],
+    sample_rate_hz: f64,
+    options: &WelchOptions,
+) -> Result<FrfEstimate> {
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(IdentifyError::InvalidArgument(format!(
+            "sample rate {sample_rate_hz} Hz is not positive and finite"
+        )));
+    }
+    options.validate()?;
+    if records.is_empty() {
+        return Err(IdentifyError::InvalidArgument(
+            "no records to estimate from".to_string(),
+        ));
+    }
+    let len = options.segment_length;
+    for (i, r) in records.iter().enumerate() {
+        check_record(i, r, len)?;
+    }
+
+    let window = options.window.samples(len);
+    let hop = options.hop();
+    // Bins 1..=bins: DC excluded, and the Nyquist bin (even lengths), whose Fourier
+    // coefficients are real and so carry no phase.
+    let bins = (len - 1) / 2;
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(len);
+    let mut scratch = vec![Complex64::default(); fft.get_inplace_scratch_len()];
+    let mut u_buf = vec![Complex64::default(); len];
+    let mut y_buf = vec![Complex64::default(); len];
+    let mut s_uu = vec![0.0; bins];
+    let mut s_yy = vec![0.0; bins];
+    let mut s_yu = vec![Complex64::default(); bins];
+    let mut segments = 0;
+
+    for r in records {
+        let n = r.input.len();
+        for start in (0..=n - len).step_by(hop) {
+            load_segment(&mut u_buf, &r.input[start..start + len], &window);
+            load_segment(&mut y_buf, &r.output[start..start + len], &window);
+            fft.process_with_scratch(&mut u_buf, &mut scratch);
+            fft.process_with_scratch(&mut y_buf, &mut scratch);
+            for k in 0..bins {
+                let (u, y) = (u_buf[k + 1], y_buf[k + 1]);
+                s_uu[k] += u.norm_sqr();
+                s_yy[k] += y.norm_sqr();
+                s_yu[k] += y * u.conj();
+            }
+            segments += 1;
+        }
+    }
+
+    if s_uu.iter().all(|&p| p == 0.0) {
+        return Err(IdentifyError::InvalidArgument(
+            "the input has no variation within any segment".to_string(),
+        ));
+    }
+
+    let frequency_hz = (1..=bins)
+        .map(|k| k as f64 * sample_rate_hz / len as f64)
+        .collect();
+    let response = s_yu
+        .iter()
+        .zip(&s_uu)
+        .map(|(&c, &p)| {
+            if p > 0.0 {
+                c / p
+            } else {
+                Complex64::new(f64::NAN, f64::NAN)
+            }
+        })
+        .collect();
+    let coherence = s_yu
+        .iter()
+        .zip(s_uu.iter().zip(&s_yy))
+        .map(|(&c, (&pu, &py))| {
+            let d = pu * py;
+            if d > 0.0 {
+                (c.norm_sqr() / d).clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    Ok(FrfEstimate {
+        frequency_hz,
+        response,
+        coherence,
+        segments,
+    })
+}
