@@ -1,0 +1,149 @@
+//! The command-filter file: the exported result of a filter design, loaded by the host
+//! tools and (as f32 coefficients) by the firmware.
+//!
+//! JSON, for example:
+//! ```json
+//! { "format": "mil-command-filter", "version": 1, "sample_rate_hz": 2000.0,
+//!   "sections": [ { "beta0": 1.9, "beta1": -0.21, "beta2": 0.0012,
+//!                   "alpha1": 0.31, "alpha2": 0.024 } ],
+//!   "figures": { "phase_lag_reduction_pct": 60.1, ... } }
+//! ```
+//! Sections are model-core's delta-form second-order sections
+//! ([`model_core::BiquadCoefficients`]: `β0 = b0`, `β1 = 2 b0 + b1`, `β2 = b0 + b1 + b2`,
+//! `α1 = 2 + a1`, `α2 = 1 + a1 + a2`), at most [`model_core::MAX_SECTIONS`], run in order.
+
+use crate::error::{AnalysisError, Result};
+use model_core::{BiquadCoefficients, CascadeCoefficients};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The `format` tag of a filter file.
+pub const FILTER_FORMAT: &str = "mil-command-filter";
+
+/// One delta-form section as stored in the file (f32 values).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SectionRecord {
+    /// `β0`.
+    pub beta0: f32,
+    /// `β1`.
+    pub beta1: f32,
+    /// `β2`.
+    pub beta2: f32,
+    /// `α1`.
+    pub alpha1: f32,
+    /// `α2`.
+    pub alpha2: f32,
+}
+
+/// A command-filter file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterFile {
+    /// Always [`FILTER_FORMAT`].
+    pub format: String,
+    /// File format version (1).
+    pub version: u32,
+    /// Sample rate the coefficients are for (Hz).
+    pub sample_rate_hz: f64,
+    /// The cascade's sections, in order.
+    pub sections: Vec<SectionRecord>,
+    /// Design figures (informative; not used when loading).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub figures: Option<serde_json::Value>,
+}
+
+impl FilterFile {
+    /// A file for `cascade` at `sample_rate_hz`.
+    pub fn new(cascade: &CascadeCoefficients, sample_rate_hz: f64) -> Self {
+        Self {
+            format: FILTER_FORMAT.into(),
+            version: 1,
+            sample_rate_hz,
+            sections: cascade
+                .active()
+                .iter()
+                .map(|s| SectionRecord {
+                    beta0: s.beta0,
+                    beta1: s.beta1,
+                    beta2: s.beta2,
+                    alpha1: s.alpha1,
+                    alpha2: s.alpha2,
+                })
+                .collect(),
+            figures: None,
+        }
+    }
+
+    /// The validated cascade (model-core's own checks: finite, stable, finite DC gain).
+    ///
+    /// # Errors
+    /// Wrong format or version, a bad sample rate, too many sections, or a cascade model-core
+    /// refuses.
+    pub fn cascade(&self) -> Result<CascadeCoefficients> {
+        let bad = |m: String| AnalysisError::Design(m);
+        if self.format != FILTER_FORMAT || self.version != 1 {
+            return Err(bad(format!(
+                "not a {FILTER_FORMAT} version 1 file (format {:?}, version {})",
+                self.format, self.version
+            )));
+        }
+        if !(self.sample_rate_hz.is_finite() && self.sample_rate_hz > 0.0) {
+            return Err(bad("sample_rate_hz must be > 0".into()));
+        }
+        let sections: Vec<BiquadCoefficients> = self
+            .sections
+            .iter()
+            .map(|s| BiquadCoefficients {
+                beta0: s.beta0,
+                beta1: s.beta1,
+                beta2: s.beta2,
+                alpha1: s.alpha1,
+                alpha2: s.alpha2,
+            })
+            .collect();
+        let cascade = CascadeCoefficients::from_sections(&sections).ok_or_else(|| {
+            bad(format!(
+                "{} sections; at most {} fit model-core",
+                sections.len(),
+                model_core::MAX_SECTIONS
+            ))
+        })?;
+        cascade
+            .validate()
+            .map_err(|e| bad(format!("model-core rejects the cascade: {e:?}")))?;
+        Ok(cascade)
+    }
+
+    /// Reads and validates a filter file.
+    ///
+    /// # Errors
+    /// I/O, JSON or validation errors.
+    pub fn read(path: &Path) -> Result<(Self, CascadeCoefficients)> {
+        let text = std::fs::read_to_string(path).map_err(|source| AnalysisError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let file: Self = serde_json::from_str(&text).map_err(|e| AnalysisError::Parse {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let cascade = file.cascade()?;
+        Ok((file, cascade))
+    }
+
+    /// Writes the file (pretty JSON).
+    ///
+    /// # Errors
+    /// I/O errors.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| AnalysisError::Parse {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(path, text + "\n").map_err(|source| AnalysisError::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+}

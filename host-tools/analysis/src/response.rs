@@ -1,0 +1,154 @@
+//! Single-input single-output frequency responses from a model or a measured table, and the
+//! command filter placed in front of the actuators.
+
+use crate::error::Result;
+use crate::poly::Rational;
+use mil_discretise::TransferFunction;
+use mil_identify::FrfTable;
+use model_core::CascadeCoefficients;
+use num_complex::Complex64;
+use std::f64::consts::TAU;
+
+/// Where a frequency response comes from.
+#[derive(Clone, Debug)]
+pub enum ResponseSource {
+    /// A rational function of `s` (rad/s) followed by a pure delay.
+    Model {
+        /// The rational part.
+        transfer_function: Rational,
+        /// Pure delay (s), `e^{-s τ}`.
+        delay_s: f64,
+    },
+    /// A measured frequency-response table, interpolated (see [`mil_identify::FrfTable`]).
+    Table(FrfTable),
+    /// Identically zero (e.g. the disturbance response of an ideal actuator).
+    Zero,
+}
+
+impl ResponseSource {
+    /// A constant gain.
+    pub fn gain(k: f64) -> Result<Self> {
+        Ok(Self::Model {
+            transfer_function: Rational::new(vec![k], vec![1.0])?,
+            delay_s: 0.0,
+        })
+    }
+
+    /// The response at `frequency_hz` (Hz).
+    ///
+    /// # Errors
+    /// A table queried outside its frequency range.
+    pub fn response(&self, frequency_hz: f64) -> Result<Complex64> {
+        Ok(match self {
+            Self::Model {
+                transfer_function,
+                delay_s,
+            } => {
+                transfer_function.response(frequency_hz)
+                    * Complex64::from_polar(1.0, -TAU * frequency_hz * delay_s)
+            }
+            Self::Table(table) => table.response(frequency_hz)?,
+            Self::Zero => Complex64::new(0.0, 0.0),
+        })
+    }
+
+    /// The response at a complex `s` (rad/s). Tables are only defined on the imaginary axis.
+    ///
+    /// # Errors
+    /// A table queried off the imaginary axis or outside its range.
+    pub fn response_s(&self, s: Complex64) -> Result<Complex64> {
+        if s.re == 0.0 {
+            return self.response(s.im / TAU);
+        }
+        Ok(match self {
+            Self::Model {
+                transfer_function,
+                delay_s,
+            } => transfer_function.response_s(s) * (-s * *delay_s).exp(),
+            Self::Table(_) => {
+                return Err(crate::error::setup_error(
+                    "a measured table has no values off the imaginary axis",
+                ))
+            }
+            Self::Zero => Complex64::new(0.0, 0.0),
+        })
+    }
+
+    /// The frequency range (Hz) over which the response is defined: a table's range, else all
+    /// positive frequencies.
+    pub fn frequency_range(&self) -> (f64, f64) {
+        match self {
+            Self::Table(table) => table.frequency_range(),
+            _ => (0.0, f64::INFINITY),
+        }
+    }
+}
+
+/// A command filter shaping the actuator command (before the actuators' tracking response).
+#[derive(Clone, Debug)]
+pub enum CommandFilter {
+    /// The model-core cascade that runs on the board, evaluated exactly at `e^{jωT}`.
+    Discrete {
+        /// The f32 delta-form cascade.
+        cascade: CascadeCoefficients,
+        /// Sample period (s).
+        sample_period_s: f64,
+    },
+    /// A continuous design (before discretisation).
+    Continuous(TransferFunction),
+}
+
+impl CommandFilter {
+    /// The response at a complex `s` (rad/s); a discrete cascade at `z = e^{sT}`.
+    pub fn response_s(&self, s: Complex64) -> Complex64 {
+        match self {
+            Self::Discrete {
+                cascade,
+                sample_period_s,
+            } => {
+                let q = (s * *sample_period_s).exp() - 1.0;
+                cascade
+                    .active()
+                    .iter()
+                    .map(|c| {
+                        let num =
+                            (q * f64::from(c.beta0) + f64::from(c.beta1)) * q + f64::from(c.beta2);
+                        let den = (q + f64::from(c.alpha1)) * q + f64::from(c.alpha2);
+                        num / den
+                    })
+                    .product()
+            }
+            Self::Continuous(tf) => {
+                mil_discretise::polyval(&tf.num, s) / mil_discretise::polyval(&tf.den, s)
+            }
+        }
+    }
+
+    /// The response at `frequency_hz` (Hz).
+    pub fn response(&self, frequency_hz: f64) -> Complex64 {
+        match self {
+            Self::Discrete {
+                cascade,
+                sample_period_s,
+            } => mil_discretise::cascade_response(cascade, frequency_hz, *sample_period_s),
+            Self::Continuous(tf) => tf.response(frequency_hz),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delay_adds_linear_phase_and_keeps_magnitude() {
+        let r = ResponseSource::Model {
+            transfer_function: Rational::new(vec![1.0], vec![1.0]).unwrap(),
+            delay_s: 1e-3,
+        };
+        let h = r.response(100.0).unwrap();
+        assert!((h.norm() - 1.0).abs() < 1e-12);
+        // 100 Hz × 1 ms = 0.1 turn = -36°
+        assert!((h.arg().to_degrees() + 36.0).abs() < 1e-9);
+    }
+}

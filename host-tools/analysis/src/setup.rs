@@ -1,0 +1,593 @@
+//! The set-up file (TOML): a MiL set-up described once, validated at load, turned into a
+//! [`MilSystem`] and [`AnalysisOptions`]. Relative file names inside (actuator tables, the
+//! command filter) are relative to the set-up file's folder.
+//!
+//! ```toml
+//! name = "tyre"
+//! [model]
+//! example = "tyre"            # "tyre" | "aero" | "two-dof" | "custom"
+//! [actuator]
+//! control = "force"           # "force" | "position"
+//! tracking = "reference"      # or { numerator = [..], denominator = [..], delay_s = 0.0 }
+//! disturbance = "reference"   #    or { table = "measured.csv" } or "none"
+//! [controller]
+//! sample_rate_hz = 2000.0     # loop delay defaults to 1.5 samples
+//! [noise]
+//! rms = 2e-6                  # measurement noise (m or N, per channel)
+//! [[analysis.responses]]
+//! name = "tyre force / road"
+//! input = "road"
+//! output = "interface_force"
+//! scale = 1e-3
+//! unit = "N/mm"
+//! ```
+//!
+//! A `custom` model gives `[numerical]` and `[physical]` (`dofs`, `mass`, `damping`,
+//! `stiffness` matrices), `[interface]` (`location`, `numerical_dofs`, `physical_dofs`,
+//! `stiffness`, `damping`) and `[[inputs]]` (`name`, `unit`, `forces` on DOFs, and for a
+//! numerical part without DOFs `interface_position`).
+
+use crate::analyze::{AnalysisOptions, ResponseSpec, Signal};
+use crate::error::{setup_error, AnalysisError, Result};
+use crate::examples::{AeroExample, Structure, TwoDofExample, TyreExample};
+use crate::filter_file::FilterFile;
+use crate::poly::Rational;
+use crate::response::{CommandFilter, ResponseSource};
+use crate::system::{
+    ActuatorControl, Actuators, ExternalInput, ImpedanceLocation, Interface, MechanicalPart,
+    MilSystem,
+};
+use crate::ServoHydraulicActuator;
+use mil_identify::FrfTable;
+use nalgebra::{DMatrix, DVector};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The whole file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SetupFile {
+    /// Name for reports.
+    #[serde(default)]
+    pub name: String,
+    /// Expected configuration number (1–4); checked against the model if given.
+    pub configuration: Option<u8>,
+    /// The structure.
+    pub model: ModelSection,
+    /// Custom numerical part.
+    pub numerical: Option<PartSection>,
+    /// Custom physical part.
+    pub physical: Option<PartSection>,
+    /// Custom interface.
+    pub interface: Option<InterfaceSection>,
+    /// Custom inputs.
+    #[serde(default)]
+    pub inputs: Vec<InputSection>,
+    /// Actuators.
+    pub actuator: ActuatorSection,
+    /// Controller.
+    pub controller: ControllerSection,
+    /// Measurement noise.
+    #[serde(default)]
+    pub noise: NoiseSection,
+    /// Analysis options.
+    #[serde(default)]
+    pub analysis: AnalysisSection,
+}
+
+/// `[model]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSection {
+    /// "tyre", "aero", "two-dof" or "custom".
+    pub example: String,
+    /// Tyre example parameters (paper values by default).
+    #[serde(default)]
+    pub tyre: TyreExample,
+    /// Aero example parameters.
+    #[serde(default)]
+    pub aero: AeroExample,
+    /// 2-DOF example parameters.
+    #[serde(default)]
+    pub two_dof: TwoDofExample,
+}
+
+/// A custom mechanical part.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartSection {
+    /// DOF names.
+    pub dofs: Vec<String>,
+    /// Mass matrix (kg), rows.
+    pub mass: Vec<Vec<f64>>,
+    /// Damping matrix (N·s/m), rows.
+    pub damping: Vec<Vec<f64>>,
+    /// Stiffness matrix (N/m), rows.
+    pub stiffness: Vec<Vec<f64>>,
+}
+
+/// A custom interface.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterfaceSection {
+    /// "physical" or "numerical": where `B_i` is.
+    pub location: String,
+    /// Numerical DOF per channel (empty for a numerical part without DOFs).
+    #[serde(default)]
+    pub numerical_dofs: Vec<String>,
+    /// Physical DOF per channel.
+    pub physical_dofs: Vec<String>,
+    /// `K_i` (N/m), rows.
+    pub stiffness: Vec<Vec<f64>>,
+    /// `C_i` (N·s/m), rows.
+    pub damping: Vec<Vec<f64>>,
+}
+
+/// A force from an input onto a DOF: `(stiffness + damping s) w`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceSection {
+    /// "numerical" or "physical".
+    pub part: String,
+    /// DOF name.
+    pub dof: String,
+    /// N per input unit.
+    #[serde(default)]
+    pub stiffness: f64,
+    /// N·s per input unit.
+    #[serde(default)]
+    pub damping: f64,
+}
+
+/// A custom input.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputSection {
+    /// Name.
+    pub name: String,
+    /// Unit ("m", "N", "rad").
+    pub unit: String,
+    /// Forces on DOFs.
+    #[serde(default)]
+    pub forces: Vec<ForceSection>,
+    /// Prescribed numerical interface position per channel (numerical part without DOFs).
+    #[serde(default)]
+    pub interface_position: Vec<f64>,
+}
+
+/// A response given in the file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum ResponseEntry {
+    /// "reference" (the reference actuator) or "none" (zero).
+    Named(String),
+    /// A rational model with optional delay.
+    Model {
+        /// Numerator, descending powers of s.
+        numerator: Vec<f64>,
+        /// Denominator.
+        denominator: Vec<f64>,
+        /// Pure delay (s).
+        #[serde(default)]
+        delay_s: f64,
+    },
+    /// A measured table (CSV of mil-identify).
+    Table {
+        /// File name.
+        table: PathBuf,
+    },
+}
+
+/// `[actuator]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorSection {
+    /// "force" or "position".
+    pub control: String,
+    /// Tracking response.
+    pub tracking: ResponseEntry,
+    /// Disturbance response.
+    pub disturbance: ResponseEntry,
+    /// Reference actuator parameters (defaults: [`ServoHydraulicActuator::REFERENCE`]).
+    pub reference: Option<ServoHydraulicActuator>,
+    /// Loop delay (s); default 1.5 samples of the controller.
+    pub loop_delay_s: Option<f64>,
+}
+
+/// `[controller]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSection {
+    /// Control loop rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Command filter file (JSON, see [`crate::filter_file`]).
+    pub filter: Option<PathBuf>,
+}
+
+/// `[noise]`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSection {
+    /// RMS measurement noise per channel (m or N), white to the Nyquist frequency.
+    #[serde(default)]
+    pub rms: f64,
+}
+
+/// `[analysis]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AnalysisSection {
+    /// Lowest frequency (Hz).
+    pub f_min_hz: f64,
+    /// Highest frequency (Hz); default the Nyquist frequency.
+    pub f_max_hz: Option<f64>,
+    /// Grid density.
+    pub points_per_decade: usize,
+    /// Error bands (Hz).
+    pub bands: Vec<[f64; 2]>,
+    /// Minimum resonance prominence (dB).
+    pub min_prominence_db: f64,
+    /// Responses to report.
+    pub responses: Vec<ResponseSection>,
+}
+
+impl Default for AnalysisSection {
+    fn default() -> Self {
+        Self {
+            f_min_hz: 0.5,
+            f_max_hz: None,
+            points_per_decade: 200,
+            bands: vec![[0.5, 5.0], [5.0, 10.0], [10.0, 20.0], [20.0, 30.0]],
+            min_prominence_db: 1.0,
+            responses: Vec::new(),
+        }
+    }
+}
+
+/// `[[analysis.responses]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResponseSection {
+    /// Name.
+    pub name: String,
+    /// Input name.
+    pub input: String,
+    /// Output signal (see [`Signal::parse`]).
+    pub output: String,
+    /// SI-to-display factor.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Display unit.
+    #[serde(default)]
+    pub unit: String,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// A loaded, validated set-up.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    /// Name.
+    pub name: String,
+    /// The system.
+    pub system: MilSystem,
+    /// Analysis options.
+    pub options: AnalysisOptions,
+    /// Control loop rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Reference actuator parameters, where the file uses them.
+    pub reference_actuator: ServoHydraulicActuator,
+}
+
+fn matrix(rows: &[Vec<f64>], what: &str) -> Result<DMatrix<f64>> {
+    let n = rows.len();
+    let m = rows.first().map_or(0, Vec::len);
+    if rows.iter().any(|r| r.len() != m) {
+        return Err(setup_error(format!("{what}: rows of different lengths")));
+    }
+    Ok(DMatrix::from_fn(n, m, |i, j| rows[i][j]))
+}
+
+fn part(p: &PartSection, what: &str) -> Result<MechanicalPart> {
+    MechanicalPart::new(
+        p.dofs.clone(),
+        matrix(&p.mass, &format!("{what} mass"))?,
+        matrix(&p.damping, &format!("{what} damping"))?,
+        matrix(&p.stiffness, &format!("{what} stiffness"))?,
+    )
+}
+
+fn location(text: &str) -> Result<ImpedanceLocation> {
+    match text {
+        "physical" => Ok(ImpedanceLocation::Physical),
+        "numerical" => Ok(ImpedanceLocation::Numerical),
+        _ => Err(setup_error(format!(
+            "interface location {text:?}: use \"physical\" or \"numerical\""
+        ))),
+    }
+}
+
+fn selector(part: &MechanicalPart, dofs: &[String], what: &str) -> Result<DMatrix<f64>> {
+    let mut q = DMatrix::zeros(dofs.len(), part.len());
+    for (k, d) in dofs.iter().enumerate() {
+        let j = part
+            .index(d)
+            .ok_or_else(|| setup_error(format!("{what}: no DOF {d:?} in {:?}", part.dofs)))?;
+        q[(k, j)] = 1.0;
+    }
+    Ok(q)
+}
+
+fn custom_structure(file: &SetupFile) -> Result<Structure> {
+    let numerical = match &file.numerical {
+        Some(p) => part(p, "numerical")?,
+        None => MechanicalPart::massless(),
+    };
+    let physical = part(
+        file.physical
+            .as_ref()
+            .ok_or_else(|| setup_error("a custom model needs [physical]"))?,
+        "physical",
+    )?;
+    let i = file
+        .interface
+        .as_ref()
+        .ok_or_else(|| setup_error("a custom model needs [interface]"))?;
+    let m = i.physical_dofs.len();
+    let numerical_select = if numerical.is_empty() {
+        DMatrix::zeros(m, 0)
+    } else {
+        if i.numerical_dofs.len() != m {
+            return Err(setup_error(
+                "interface: numerical_dofs and physical_dofs need one entry per channel",
+            ));
+        }
+        selector(&numerical, &i.numerical_dofs, "interface numerical_dofs")?
+    };
+    let interface = Interface {
+        location: location(&i.location)?,
+        numerical_select,
+        physical_select: selector(&physical, &i.physical_dofs, "interface physical_dofs")?,
+        stiffness: matrix(&i.stiffness, "interface stiffness")?,
+        damping: matrix(&i.damping, "interface damping")?,
+    };
+    let mut inputs = Vec::new();
+    for s in &file.inputs {
+        let mut input = ExternalInput::new(&s.name, &s.unit, numerical.len(), physical.len(), m);
+        for force in &s.forces {
+            let (target, stiff, damp) = match force.part.as_str() {
+                "numerical" => (
+                    &numerical,
+                    &mut input.numerical_stiffness,
+                    &mut input.numerical_damping,
+                ),
+                "physical" => (
+                    &physical,
+                    &mut input.physical_stiffness,
+                    &mut input.physical_damping,
+                ),
+                other => {
+                    return Err(setup_error(format!(
+                        "input {:?}: part {other:?} is not \"numerical\" or \"physical\"",
+                        s.name
+                    )))
+                }
+            };
+            let j = target.index(&force.dof).ok_or_else(|| {
+                setup_error(format!("input {:?}: no DOF {:?}", s.name, force.dof))
+            })?;
+            stiff[j] += force.stiffness;
+            damp[j] += force.damping;
+        }
+        if !s.interface_position.is_empty() {
+            if s.interface_position.len() != m {
+                return Err(setup_error(format!(
+                    "input {:?}: interface_position needs {m} entries",
+                    s.name
+                )));
+            }
+            input.interface_position = DVector::from_vec(s.interface_position.clone());
+        }
+        inputs.push(input);
+    }
+    Ok(Structure {
+        numerical,
+        physical,
+        interface,
+        inputs,
+        actuator_transform: DMatrix::identity(m, m),
+    })
+}
+
+fn response(
+    entry: &ResponseEntry,
+    reference: Option<Rational>,
+    folder: &Path,
+    what: &str,
+) -> Result<ResponseSource> {
+    Ok(match entry {
+        ResponseEntry::Named(n) if n == "reference" => ResponseSource::Model {
+            transfer_function: reference.ok_or_else(|| {
+                setup_error(format!(
+                    "actuator {what} = \"reference\" needs force control (the reference \
+                     actuator is force-controlled)"
+                ))
+            })?,
+            delay_s: 0.0,
+        },
+        ResponseEntry::Named(n) if n == "none" => ResponseSource::Zero,
+        ResponseEntry::Named(n) => {
+            return Err(setup_error(format!(
+                "actuator {what} {n:?}: use \"reference\", \"none\", a model or a table"
+            )))
+        }
+        ResponseEntry::Model {
+            numerator,
+            denominator,
+            delay_s,
+        } => {
+            if !(delay_s.is_finite() && *delay_s >= 0.0) {
+                return Err(setup_error(format!("actuator {what} delay_s must be >= 0")));
+            }
+            ResponseSource::Model {
+                transfer_function: Rational::new(numerator.clone(), denominator.clone())?,
+                delay_s: *delay_s,
+            }
+        }
+        ResponseEntry::Table { table } => {
+            ResponseSource::Table(FrfTable::read_csv(&folder.join(table))?)
+        }
+    })
+}
+
+impl Setup {
+    /// Reads and validates a set-up file.
+    ///
+    /// # Errors
+    /// I/O, TOML, or any inconsistency (named).
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| AnalysisError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let file: SetupFile = toml::from_str(&text).map_err(|e| AnalysisError::Parse {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let folder = path.parent().unwrap_or(Path::new("."));
+        Self::from_file(&file, folder)
+    }
+
+    /// Builds the set-up from a parsed file; `folder` resolves relative file names.
+    ///
+    /// # Errors
+    /// Any inconsistency (named).
+    pub fn from_file(file: &SetupFile, folder: &Path) -> Result<Self> {
+        let structure = match file.model.example.as_str() {
+            "tyre" => file.model.tyre.structure()?,
+            "aero" => file.model.aero.structure()?,
+            "two-dof" => file.model.two_dof.structure()?,
+            "custom" => custom_structure(file)?,
+            other => {
+                return Err(setup_error(format!(
+                    "model example {other:?}: use \"tyre\", \"aero\", \"two-dof\" or \"custom\""
+                )))
+            }
+        };
+        if file.model.example != "custom"
+            && (file.numerical.is_some() || file.physical.is_some() || file.interface.is_some())
+        {
+            return Err(setup_error(
+                "[numerical], [physical] and [interface] belong to example = \"custom\"",
+            ));
+        }
+        let fs = file.controller.sample_rate_hz;
+        if !(fs.is_finite() && fs > 0.0) {
+            return Err(setup_error("controller sample_rate_hz must be > 0"));
+        }
+        let control = match file.actuator.control.as_str() {
+            "force" => ActuatorControl::Force,
+            "position" => ActuatorControl::Position,
+            other => {
+                return Err(setup_error(format!(
+                    "actuator control {other:?}: use \"force\" or \"position\""
+                )))
+            }
+        };
+        let reference_actuator = file
+            .actuator
+            .reference
+            .unwrap_or(ServoHydraulicActuator::REFERENCE);
+        let (ref_p, ref_r) = if control == ActuatorControl::Force {
+            (
+                Some(reference_actuator.tracking()?),
+                Some(reference_actuator.disturbance()?),
+            )
+        } else {
+            (None, None)
+        };
+        let loop_delay_s = file.actuator.loop_delay_s.unwrap_or(1.5 / fs);
+        let actuators = Actuators {
+            control,
+            tracking: response(&file.actuator.tracking, ref_p, folder, "tracking")?,
+            disturbance: response(&file.actuator.disturbance, ref_r, folder, "disturbance")?,
+            transform: DMatrix::identity(1, 1),
+            loop_delay_s,
+        };
+        let mut system = structure.with_actuators(actuators);
+        if let Some(filter) = &file.controller.filter {
+            let (ff, cascade) = FilterFile::read(&folder.join(filter))?;
+            if (ff.sample_rate_hz - fs).abs() > 1e-9 * fs {
+                return Err(setup_error(format!(
+                    "filter {} is for {} Hz, the controller runs at {fs} Hz",
+                    filter.display(),
+                    ff.sample_rate_hz
+                )));
+            }
+            system.filter = Some(CommandFilter::Discrete {
+                cascade,
+                sample_period_s: 1.0 / fs,
+            });
+        }
+        system.validate()?;
+        if let Some(c) = file.configuration {
+            if c != system.configuration() {
+                return Err(setup_error(format!(
+                    "configuration = {c} but the model and actuators make configuration {}",
+                    system.configuration()
+                )));
+            }
+        }
+        let a = &file.analysis;
+        let nyquist = fs / 2.0;
+        let mut responses = Vec::new();
+        for r in &a.responses {
+            let input = system
+                .inputs
+                .iter()
+                .position(|i| i.name == r.input)
+                .ok_or_else(|| {
+                    setup_error(format!(
+                        "response {:?}: no input {:?} (inputs: {:?})",
+                        r.name,
+                        r.input,
+                        system.inputs.iter().map(|i| &i.name).collect::<Vec<_>>()
+                    ))
+                })?;
+            responses.push(ResponseSpec {
+                name: r.name.clone(),
+                input,
+                output: Signal::parse(&r.output, &system)?,
+                display_scale: r.scale,
+                display_unit: r.unit.clone(),
+            });
+        }
+        if responses.is_empty() {
+            return Err(setup_error(
+                "[[analysis.responses]]: give at least one response",
+            ));
+        }
+        if !(file.noise.rms.is_finite() && file.noise.rms >= 0.0) {
+            return Err(setup_error("noise rms must be >= 0"));
+        }
+        let options = AnalysisOptions {
+            f_min_hz: a.f_min_hz,
+            f_max_hz: a.f_max_hz.unwrap_or(nyquist),
+            points_per_decade: a.points_per_decade.max(10),
+            bands: a.bands.iter().map(|b| (b[0], b[1])).collect(),
+            responses,
+            min_prominence_db: a.min_prominence_db,
+            noise_rms: file.noise.rms,
+            nyquist_hz: nyquist,
+        };
+        Ok(Self {
+            name: file.name.clone(),
+            system,
+            options,
+            sample_rate_hz: fs,
+            reference_actuator,
+        })
+    }
+}
