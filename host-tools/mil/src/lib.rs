@@ -6,6 +6,7 @@
 //! measured positions are zero (or come from a recorded CSV), so the demand is the force the
 //! numerical model asks of the actuators for the given road and speed.
 
+pub mod analyze;
 pub mod config;
 pub mod plot;
 pub mod run;

@@ -31,6 +31,19 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Frequency-domain analysis of a MiL set-up: MiL vs emulated responses, open-loop
+    /// margins, resonances, band errors and noise sensitivity. Examples:
+    /// host-tools/mil/examples/analyze/.
+    Analyze {
+        /// Set-up file (TOML).
+        setup: PathBuf,
+        /// Output folder for the plots (SVG) and traces (CSV).
+        #[arg(long, default_value = "out/analyze")]
+        out: PathBuf,
+        /// Print one JSON object with the figures instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Validate a run configuration and report the first problem.
     Check {
         /// Run configuration (TOML).
@@ -67,6 +80,15 @@ fn main() -> Result<()> {
                 print!("{}", result.table());
                 println!("time histories: {}", csv.display());
                 println!("plot:           {}", svg.display());
+            }
+            Ok(())
+        }
+        Command::Analyze { setup, out, json } => {
+            let result = mil::analyze::run_analyze(&setup, &out)?;
+            if json {
+                println!("{}", serde_json::to_string(&result.summary())?);
+            } else {
+                print!("{}", result.table());
             }
             Ok(())
         }
