@@ -44,6 +44,35 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Identify an actuator's frequency response from test records (sine sweep and/or random
+    /// noise; H1 estimate, Welch averaging, coherence) and write the table `mil analyze`
+    /// reads (`[actuator] tracking = { table = "..." }`).
+    Identify {
+        /// Record file (CSV with a header, `time` first, uniform); repeat to average several.
+        #[arg(long = "data", required = true)]
+        data: Vec<PathBuf>,
+        /// Input column (e.g. the force command).
+        #[arg(long)]
+        input: String,
+        /// Output column (e.g. the measured force).
+        #[arg(long)]
+        output: String,
+        /// Welch segment length (samples); resolution = sample rate / length.
+        #[arg(long, default_value_t = 4096)]
+        segment: usize,
+        /// Band kept in the table, LOW:HIGH in Hz (the excited band).
+        #[arg(long, default_value = "0.5:140")]
+        band: String,
+        /// Points with lower coherence are dropped.
+        #[arg(long, default_value_t = 0.9)]
+        min_coherence: f64,
+        /// Table file to write.
+        #[arg(long, default_value = "out/actuator-frf.csv")]
+        out: PathBuf,
+        /// Print one JSON object with the summary.
+        #[arg(long)]
+        json: bool,
+    },
     /// Validate a run configuration and report the first problem.
     Check {
         /// Run configuration (TOML).
@@ -89,6 +118,44 @@ fn main() -> Result<()> {
                 println!("{}", serde_json::to_string(&result.summary())?);
             } else {
                 print!("{}", result.table());
+            }
+            Ok(())
+        }
+        Command::Identify {
+            data,
+            input,
+            output,
+            segment,
+            band,
+            min_coherence,
+            out,
+            json,
+        } => {
+            if let Some(parent) = out.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            let (_, summary) = mil::identify::run_identify(&mil::identify::IdentifyOptions {
+                records: data,
+                input,
+                output,
+                segment_length: segment,
+                band_hz: mil::identify::parse_band(&band)?,
+                min_coherence,
+                out,
+            })?;
+            if json {
+                println!("{}", serde_json::to_string(&summary)?);
+            } else {
+                println!(
+                    "{} points, {:.2}-{:.1} Hz, {} segments at {} Hz, lowest coherence {:.3}\nwrote {}",
+                    summary.points,
+                    summary.frequency_range_hz.0,
+                    summary.frequency_range_hz.1,
+                    summary.segments,
+                    summary.sample_rate_hz,
+                    summary.min_coherence,
+                    summary.table
+                );
             }
             Ok(())
         }
