@@ -94,27 +94,7 @@ fn main() {
         ..base
     };
     let delay = args.get(4).copied().unwrap_or(0.75e-3);
-    let sys = TyreExample::default()
-        .structure()
-        .unwrap()
-        .with_actuators(force_actuators(&act, delay).unwrap());
-    let opts = AnalysisOptions {
-        f_min_hz: 0.5,
-        f_max_hz: 300.0,
-        points_per_decade: 400,
-        bands: vec![(0.5, 5.0), (5.0, 10.0), (10.0, 30.0)],
-        responses: vec![ResponseSpec {
-            name: "tyre force".into(),
-            input: 0,
-            output: Signal::InterfaceForce(0),
-            display_scale: 1e-3,
-            display_unit: "N/mm".into(),
-        }],
-        min_prominence_db: 1.0,
-        noise_rms: 2e-6,
-        nyquist_hz: 1000.0,
-    };
-    let r = analyze(&sys, &opts).unwrap();
+    let r = figures(&act, delay).expect("valid actuator and set-up");
     let p = act.tracking().unwrap();
     for f in [4.0, 10.0, 17.0, 20.0, 30.0, 100.0] {
         let h = p.response(f);

@@ -27,24 +27,14 @@ pub fn linear_grid(f_min_hz: f64, f_max_hz: f64, step_hz: f64) -> Vec<f64> {
 /// Phases (degrees) of `values`, unwrapped along the sequence, the first one taken in
 /// (−270°, 90°] so that a loop phase just beyond −180° at low frequency stays a lag.
 pub fn unwrapped_phase_deg(values: &[Complex64]) -> Vec<f64> {
-    let mut out = Vec::with_capacity(values.len());
-    let mut previous: Option<f64> = None;
-    for v in values {
-        let raw = v.arg().to_degrees();
-        let phase = match previous {
-            None => {
-                if raw > 90.0 {
-                    raw - 360.0
-                } else {
-                    raw
-                }
-            }
-            Some(p) => raw + 360.0 * ((p - raw) / 360.0).round(),
-        };
-        out.push(phase);
-        previous = Some(phase);
+    let mut phase: Vec<f64> = values.iter().map(|v| v.arg().to_degrees()).collect();
+    if phase.first().is_some_and(|p| *p > 90.0) {
+        for p in &mut phase {
+            *p -= 360.0;
+        }
     }
-    out
+    mil_identify::unwrap_phase_deg(&mut phase);
+    phase
 }
 
 /// Eigenvalues of a small complex matrix (closed form up to 2 × 2, Schur form above).

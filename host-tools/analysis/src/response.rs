@@ -126,13 +126,7 @@ impl CommandFilter {
 
     /// The response at `frequency_hz` (Hz).
     pub fn response(&self, frequency_hz: f64) -> Complex64 {
-        match self {
-            Self::Discrete {
-                cascade,
-                sample_period_s,
-            } => mil_discretise::cascade_response(cascade, frequency_hz, *sample_period_s),
-            Self::Continuous(tf) => tf.response(frequency_hz),
-        }
+        self.response_s(Complex64::new(0.0, TAU * frequency_hz))
     }
 }
 

@@ -504,7 +504,7 @@ impl MilSystem {
                 (-(&k * &b), &k * &b * &t_n, true)
             }
         };
-        let side = self.physical_side(config, s, f, &b, &qp, &ap, &ep, &p, &r)?;
+        let side = self.physical_side(config, f, &b, &qp, &ap, &ep, &p, &r)?;
 
         let g = match which {
             Loop::Emulated => c(1.0),
@@ -548,7 +548,6 @@ impl MilSystem {
     fn physical_side(
         &self,
         config: u8,
-        _s: Complex64,
         f: f64,
         b: &CMatrix,
         qp: &CMatrix,
@@ -559,8 +558,6 @@ impl MilSystem {
     ) -> Result<PhysicalSide> {
         let m = self.channels();
         let eye = CMatrix::identity(m, m);
-        let np = self.physical.len();
-        let nw = self.inputs.len();
         match config {
             1 => {
                 // Actuator position x_a drives the free end of the physical B_i.
@@ -635,8 +632,6 @@ impl MilSystem {
                 let h_w = qp * &x_w;
                 let f_c = p + r * &h_c;
                 let f_w = r * &h_w;
-                debug_assert_eq!(x_c.nrows(), np);
-                debug_assert_eq!(x_w.ncols(), nw);
                 Ok(PhysicalSide {
                     h_c,
                     h_w,
@@ -720,7 +715,6 @@ impl MilSystem {
         let Some(mut previous) = det(0.0) else {
             return Stability::Unknown;
         };
-        let start_arg = previous.arg();
         let mut total = 0.0;
         let mut w_prev = 0.0;
         for &w in &ws[1..] {
@@ -750,7 +744,6 @@ impl MilSystem {
         if end.open_loop.iter().any(|v| v.norm() > 0.1) {
             return Stability::Unknown;
         }
-        let _ = start_arg;
         let z = (-total / std::f64::consts::PI).round();
         if z <= 0.0 {
             Stability::Stable

@@ -4,7 +4,7 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::error::{path_origin, IdentifyError, Result};
-use crate::table::{parse_field, record_line};
+use crate::table::{csv_with_header, parse_field, record_line};
 
 /// The name used in error messages for a record read from a stream.
 const STREAM_ORIGIN: &str = "time-series record";
@@ -52,15 +52,7 @@ fn parse_record<R: Read>(
     input_column: &str,
     output_column: &str,
 ) -> Result<(f64, Vec<f64>, Vec<f64>)> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .from_reader(reader);
-    let header = rdr
-        .headers()
-        .map_err(|e| IdentifyError::csv(origin, e))?
-        .clone();
+    let (mut rdr, header) = csv_with_header(reader, origin)?;
     if header.get(0) != Some("time") {
         return Err(IdentifyError::format(
             origin,

@@ -343,7 +343,12 @@ pub(crate) fn record_line(record: &csv::StringRecord, fallback: u64) -> u64 {
     record.position().map_or(fallback, csv::Position::line)
 }
 
-fn parse_csv<R: Read>(reader: R, origin: &str) -> Result<FrfTable> {
+/// A CSV reader over `reader` (header row, trimmed fields, rows of any length: checked by
+/// the caller line by line) and its header.
+pub(crate) fn csv_with_header<R: Read>(
+    reader: R,
+    origin: &str,
+) -> Result<(csv::Reader<R>, csv::StringRecord)> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)
@@ -353,6 +358,11 @@ fn parse_csv<R: Read>(reader: R, origin: &str) -> Result<FrfTable> {
         .headers()
         .map_err(|e| IdentifyError::csv(origin, e))?
         .clone();
+    Ok((rdr, header))
+}
+
+fn parse_csv<R: Read>(reader: R, origin: &str) -> Result<FrfTable> {
+    let (mut rdr, header) = csv_with_header(reader, origin)?;
     let names: Vec<&str> = header.iter().collect();
     let columns = names.len();
     if !(columns == 3 || columns == 4) || names[..] != CSV_COLUMNS[..columns] {

@@ -178,7 +178,7 @@ fn series(label: &str, f: &[f64], h: &[Complex64], dashed: bool) -> BodeSeries {
 }
 
 /// Writes `responses.svg`, `open-loop.svg`, `noise-sensitivity.svg` and `responses.csv`.
-fn write_outputs(setup: &Setup, report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
+fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let t = &report.traces;
     let f = &t.frequency_hz;
@@ -297,7 +297,6 @@ fn write_outputs(setup: &Setup, report: &AnalysisReport, out: &Path) -> Result<V
     }
     w.flush()?;
     files.push(path);
-    let _ = setup;
     Ok(files)
 }
 
@@ -309,7 +308,7 @@ pub fn run_analyze(setup_path: &Path, out: &Path) -> Result<AnalyzeOutput> {
     let setup = Setup::read(setup_path)
         .with_context(|| format!("loading set-up {}", setup_path.display()))?;
     let report = analyze(&setup.system, &setup.options)?;
-    let files = write_outputs(&setup, &report, out)?;
+    let files = write_outputs(&report, out)?;
     Ok(AnalyzeOutput {
         setup,
         report,
