@@ -141,10 +141,11 @@ pub struct LoopFigures {
 
 impl LoopFigures {
     fn new(m: Margins, resonances: Vec<Resonance>, stability: Stability) -> Self {
+        let (gain_margin, gain_margin_hz) = m.reported_gain_margin(stability);
         Self {
             stability,
-            gain_margin: m.gain_margin,
-            gain_margin_hz: m.gain_margin_hz,
+            gain_margin,
+            gain_margin_hz,
             phase_margin_deg: m.phase_margin_deg,
             phase_margin_hz: m.phase_margin_hz,
             resonances,

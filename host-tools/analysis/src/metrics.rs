@@ -84,14 +84,39 @@ pub fn characteristic_loci(open_loop: &[CMatrix]) -> Vec<Vec<Complex64>> {
 /// `1 + L`). `None` where the loop never crosses (an infinite margin).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Margins {
-    /// Smallest `1/|L|` where the phase of `L` crosses −180° (mod 360°).
+    /// Upper gain margin: the smallest `1/|L|` over the phase crossovers (phase of `L` at
+    /// −180° mod 360°) where `|L| < 1`, i.e. the factor by which the loop gain may rise.
     pub gain_margin: Option<f64>,
     /// Frequency of that phase crossover (Hz).
     pub gain_margin_hz: Option<f64>,
+    /// Gain-reduction margin: the largest `1/|L|` over the phase crossovers where
+    /// `|L| ≥ 1` (below 1). For an unstable loop it is the factor the gain must fall by at
+    /// that crossover; for a stable one the loop is conditionally stable there (a free mass
+    /// on a spring hugs −180° at low frequency with `|L| ≫ 1` without that mattering).
+    pub gain_reduction_margin: Option<f64>,
+    /// Frequency of that phase crossover (Hz).
+    pub gain_reduction_margin_hz: Option<f64>,
     /// Smallest `180° + ∠L` (wrapped to (−180°, 180°]) where `|L|` crosses 1 (degrees).
     pub phase_margin_deg: Option<f64>,
     /// Frequency of that gain crossover (Hz).
     pub phase_margin_hz: Option<f64>,
+}
+
+impl Margins {
+    /// The gain margin to report and its frequency: the upper margin, except for an
+    /// unstable loop, where it is the gain-reduction margin (below 1), so that an unstable
+    /// loop never shows a margin above 1.
+    pub fn reported_gain_margin(
+        &self,
+        stability: crate::system::Stability,
+    ) -> (Option<f64>, Option<f64>) {
+        match stability {
+            crate::system::Stability::Unstable(_) => {
+                (self.gain_reduction_margin, self.gain_reduction_margin_hz)
+            }
+            _ => (self.gain_margin, self.gain_margin_hz),
+        }
+    }
 }
 
 /// Linear interpolation in log-frequency between grid points `i` and `i + 1` for the
@@ -116,9 +141,15 @@ pub fn margins(frequency_hz: &[f64], loci: &[Vec<Complex64>]) -> Margins {
                 let t = if b != a { (target - a) / (b - a) } else { 0.0 };
                 let m = (mag[i].ln() + t * (mag[i + 1].ln() - mag[i].ln())).exp();
                 let gm = 1.0 / m;
-                if out.gain_margin.is_none_or(|g| gm < g) {
-                    out.gain_margin = Some(gm);
-                    out.gain_margin_hz = Some(interp_log_f(frequency_hz, i, t));
+                let hz = interp_log_f(frequency_hz, i, t);
+                if gm > 1.0 {
+                    if out.gain_margin.is_none_or(|g| gm < g) {
+                        out.gain_margin = Some(gm);
+                        out.gain_margin_hz = Some(hz);
+                    }
+                } else if out.gain_reduction_margin.is_none_or(|g| gm > g) {
+                    out.gain_reduction_margin = Some(gm);
+                    out.gain_reduction_margin_hz = Some(hz);
                 }
             }
             // Gain crossover: |L| passes 1.

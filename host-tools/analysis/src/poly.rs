@@ -33,13 +33,11 @@ pub fn scale(a: &[f64], c: f64) -> Vec<f64> {
     a.iter().map(|x| x * c).collect()
 }
 
-/// Drops leading coefficients whose magnitude is at most `1e-15` of the largest one.
+/// Drops leading coefficients that are exactly zero. (Coefficients of different powers of
+/// `s` are not comparable in size: `1e-13 s⁵` matters at a few kHz, so no relative
+/// threshold is applied.)
 pub fn trim(a: &[f64]) -> Vec<f64> {
-    let big = a.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    a.iter()
-        .skip_while(|x| x.abs() <= 1e-15 * big)
-        .copied()
-        .collect()
+    a.iter().skip_while(|x| **x == 0.0).copied().collect()
 }
 
 #[cfg(test)]
@@ -52,7 +50,9 @@ mod tests {
         assert_eq!(mul(&[1.0, 1.0], &[1.0, 2.0]), vec![1.0, 3.0, 2.0]);
         // (s² + 3 s + 2) + (4 s + 1) = s² + 7 s + 3
         assert_eq!(add(&[1.0, 3.0, 2.0], &[4.0, 1.0]), vec![1.0, 7.0, 3.0]);
-        assert_eq!(trim(&[0.0, 1e-20, 2.0, 1.0]), vec![2.0, 1.0]);
+        assert_eq!(trim(&[0.0, 0.0, 2.0, 1.0]), vec![2.0, 1.0]);
+        // A small leading coefficient of a high-order model is kept.
+        assert_eq!(trim(&[1.3e-13, 3.4e-10, 1.0]), vec![1.3e-13, 3.4e-10, 1.0]);
         assert_eq!(scale(&[1.0, -2.0], 3.0), vec![3.0, -6.0]);
     }
 }

@@ -10,6 +10,9 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
 
+/// The paper's controller sample period (s), 2 kHz.
+const DT: f64 = 5e-4;
+
 fn ideal(control: ActuatorControl) -> Actuators {
     Actuators {
         control,
@@ -68,7 +71,7 @@ fn all_four_configurations_reduce_to_the_coupled_system() {
 fn tyre_emulated_force_matches_the_quarter_car() {
     let t = TyreExample::default();
     let sys = t
-        .structure()
+        .structure(DT)
         .unwrap()
         .with_actuators(ideal(ActuatorControl::Force));
     for f in [0.7, 4.0, 12.0, 30.0] {
@@ -93,7 +96,7 @@ fn tyre_emulated_force_matches_the_quarter_car() {
 /// where `H` is the physical part's interface compliance, so it scales with `p`.
 #[test]
 fn open_loop_scales_with_the_actuator_gain() {
-    let base = TyreExample::default().structure().unwrap();
+    let base = TyreExample::default().structure(DT).unwrap();
     let mut a = ideal(ActuatorControl::Force);
     let l1 = base
         .clone()
@@ -109,7 +112,7 @@ fn open_loop_scales_with_the_actuator_gain() {
 /// A loop delay only rotates the open loop: |L| unchanged, phase −360 f τ degrees.
 #[test]
 fn loop_delay_rotates_the_open_loop() {
-    let base = TyreExample::default().structure().unwrap();
+    let base = TyreExample::default().structure(DT).unwrap();
     let mut a = ideal(ActuatorControl::Force);
     let l0 = base
         .clone()
@@ -157,7 +160,7 @@ fn aero_disturbance_acts_through_the_axle_transform() {
 fn impossible_configurations_are_refused() {
     // Case 2 needs masses in the numerical part (the tyre's numerical part has none).
     let mut sys = TyreExample::default()
-        .structure()
+        .structure(DT)
         .unwrap()
         .with_actuators(ideal(ActuatorControl::Force));
     sys.interface.location = ImpedanceLocation::Physical;
@@ -171,7 +174,9 @@ fn impossible_configurations_are_refused() {
 #[test]
 fn stability_count_agrees_with_the_delay_integrator_margin() {
     use mil_analysis::metrics::{characteristic_loci, margins};
-    use mil_analysis::system::{ExternalInput, Interface, MechanicalPart, Stability};
+    use mil_analysis::system::{
+        ExternalInput, Interface, MechanicalPart, Stability, VelocityEstimate,
+    };
     let build = |k: f64| {
         let physical = MechanicalPart::new(
             vec!["x".into()],
@@ -193,6 +198,7 @@ fn stability_count_agrees_with_the_delay_integrator_margin() {
                 physical_select: DMatrix::identity(1, 1),
                 stiffness: DMatrix::from_element(1, 1, k),
                 damping: DMatrix::zeros(1, 1),
+                velocity: VelocityEstimate::Continuous,
             },
             inputs: vec![input],
             actuators: act,
@@ -209,9 +215,17 @@ fn stability_count_agrees_with_the_delay_integrator_margin() {
             .map(|&x| sys.point(x, Loop::Mil).unwrap().open_loop)
             .collect();
         let m = margins(&f, &characteristic_loci(&pts));
-        assert!((m.gain_margin.unwrap() - gm).abs() < 1e-3 * gm);
-        assert!((m.gain_margin_hz.unwrap() - 25.0).abs() < 1e-2);
-        assert_eq!(sys.stability(Loop::Mil), expected, "GM {gm}");
+        let stability = sys.stability(Loop::Mil);
+        assert_eq!(stability, expected, "GM {gm}");
+        // Above 1 it is the upper margin, below 1 (unstable) the gain-reduction margin.
+        let (reported, hz) = m.reported_gain_margin(stability);
+        assert!((reported.unwrap() - gm).abs() < 1e-3 * gm);
+        assert!((hz.unwrap() - 25.0).abs() < 1e-2);
+        if gm < 1.0 {
+            assert_eq!(m.gain_margin, None);
+        } else {
+            assert_eq!(m.gain_reduction_margin, None);
+        }
         assert_eq!(sys.stability(Loop::Emulated), Stability::Stable);
     }
 }

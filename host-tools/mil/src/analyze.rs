@@ -228,9 +228,19 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
             label: format!("GM {gm:.2} at {hz:.1} Hz"),
         });
     }
-    let path = out.join("open-loop.svg");
-    bode_svg(&path, &open)?;
-    files.push(path);
+    // A configuration without a loop (L ≡ 0, e.g. B_i physical and a massless numerical
+    // part) has nothing to draw.
+    let has_loop = t
+        .mil_open_loop
+        .iter()
+        .chain(&t.emulated_open_loop)
+        .flatten()
+        .any(|v| v.norm() > 0.0 && v.is_finite());
+    if has_loop {
+        let path = out.join("open-loop.svg");
+        bode_svg(&path, &open)?;
+        files.push(path);
+    }
 
     let mut noise = BodePlot::new(
         "Control sensitivity: actuator command per unit measurement noise",
