@@ -5,7 +5,16 @@
 //! velocity for damped ground connections) but the rig measures positions. A pure backward
 //! difference amplifies measurement noise by `2/dt` at Nyquist; the low-pass trades that for
 //! a phase lag of about `atan(f / f_c)` at frequency `f`. The lag is part of the numerical
-//! model and is accounted for by the loop analysis.
+//! model. Its exact discrete response,
+//!
+//! ```text
+//! V(z) = inv_dt · gain · (1 − z⁻¹) / (1 − (1 − gain) z⁻¹)      (1/s)
+//! ```
+//!
+//! built from these `f32` coefficients, is what the loop analysis (`mil-analysis`,
+//! `VelocityEstimate::Board`) uses for the tyre's damping velocity (a numerical interface
+//! impedance over a numerical part without masses, force control); the velocities of the
+//! [`crate::substructure`] model are analysed as continuous derivatives.
 
 use crate::params::{Field, ParamError, Range};
 

@@ -12,7 +12,7 @@ fn figures(
     delay: f64,
 ) -> Option<mil_analysis::analyze::AnalysisReport> {
     let sys = TyreExample::default()
-        .structure()
+        .structure(1.0 / 2000.0)
         .ok()?
         .with_actuators(force_actuators(act, delay).ok()?);
     analyze(&sys, &options()).ok()

@@ -1,9 +1,15 @@
 //! The paper's examples as linear MiL set-ups: the tyre on a hub-coupled rig (section 4),
 //! the aerodynamic model on a four-poster (section 3) and the 2-DOF example (Lim et al.).
-//! Parameters are the paper's (brief tables), in SI units.
+//! Parameters are the paper's (brief tables), in SI units. The tyre's damping velocity is by
+//! default what the board's tyre computes (model-core's velocity estimator at the
+//! controller's sample period and the model-core tyre's 500 Hz cut-off), see
+//! [`crate::system::VelocityEstimate`].
 
-use crate::error::Result;
-use crate::system::{ExternalInput, ImpedanceLocation, Interface, MechanicalPart};
+use crate::error::{setup_error, Result};
+use crate::system::{
+    ExternalInput, ImpedanceLocation, Interface, MechanicalPart, VelocityEstimate,
+};
+use model_core::TyreParams;
 use nalgebra::{dmatrix, DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -22,6 +28,20 @@ pub struct Structure {
     pub actuator_transform: DMatrix<f64>,
 }
 
+/// How the tyre example's analysis obtains the tyre's deflection velocity.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TyreVelocity {
+    /// As the board's tyre model computes it: model-core's velocity estimator at the
+    /// controller's sample period with [`TyreExample::velocity_cutoff_hz`]
+    /// ([`VelocityEstimate::Board`]).
+    #[default]
+    Board,
+    /// The ideal continuous derivative `c_t s` ([`VelocityEstimate::Continuous`]), e.g. to
+    /// see what the estimator costs.
+    Continuous,
+}
+
 /// Quarter car on a hub-coupled rig with a numerical tyre (paper section 4, Table 2).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -38,6 +58,12 @@ pub struct TyreExample {
     pub tyre_stiffness: f64,
     /// Tyre damping `c_t` (N·s/m).
     pub tyre_damping: f64,
+    /// Cut-off (Hz) of the low-pass of the board's tyre deflection-velocity estimator
+    /// (`model_core::TyreParams::velocity_cutoff_hz`; 0: plain backward difference, at most
+    /// 20 kHz). Default: the model-core tyre's, [`TyreParams::PAPER`] (500 Hz).
+    pub velocity_cutoff_hz: f64,
+    /// Whether the analysis uses the board's velocity estimator (default) or `c_t s`.
+    pub velocity_estimate: TyreVelocity,
 }
 
 impl Default for TyreExample {
@@ -49,6 +75,8 @@ impl Default for TyreExample {
             unsprung_mass_kg: 20.0,
             tyre_stiffness: 250e3,
             tyre_damping: 500.0,
+            velocity_cutoff_hz: f64::from(TyreParams::PAPER.velocity_cutoff_hz),
+            velocity_estimate: TyreVelocity::Board,
         }
     }
 }
@@ -62,12 +90,32 @@ fn couple(k_mat: &mut DMatrix<f64>, c_mat: &mut DMatrix<f64>, i: usize, j: usize
 }
 
 impl TyreExample {
-    /// The structure: physical DOFs `x_s` (body) and `x_u` (hub), numerical tyre
-    /// `B_i = c_t s + k_t` from the road input `road` (m) to the hub; configuration 4.
+    /// The structure for a controller running every `sample_period_s` seconds: physical DOFs
+    /// `x_s` (body) and `x_u` (hub), numerical tyre `B_i = c_t V(s) + k_t` from the road
+    /// input `road` (m) to the hub, configuration 4. `V` is the board's velocity estimator at
+    /// that sample period and [`TyreExample::velocity_cutoff_hz`] (what `model_core`'s tyre
+    /// computes from the sampled deflection), or `s` with [`TyreVelocity::Continuous`].
     ///
     /// # Errors
-    /// Non-finite parameters.
-    pub fn structure(&self) -> Result<Structure> {
+    /// Non-finite parameters; with the board's estimator, a cut-off outside 0–20 kHz or a
+    /// sample period outside model-core's 5e-5 to 1e-2 s.
+    pub fn structure(&self, sample_period_s: f64) -> Result<Structure> {
+        let velocity = match self.velocity_estimate {
+            TyreVelocity::Continuous => VelocityEstimate::Continuous,
+            TyreVelocity::Board => VelocityEstimate::Board {
+                sample_period_s,
+                cutoff_hz: self.velocity_cutoff_hz,
+            },
+        };
+        // Validated as the board validates it.
+        if velocity.coefficients().is_err() {
+            return Err(setup_error(format!(
+                "tyre velocity_cutoff_hz = {} Hz at a sample period of {sample_period_s} s: \
+                 the board's tyre needs a cut-off of 0 (plain backward difference) to \
+                 20000 Hz and a sample period of 5e-5 to 1e-2 s (100 Hz to 20 kHz)",
+                self.velocity_cutoff_hz
+            )));
+        }
         let mut k = DMatrix::zeros(2, 2);
         let mut c = DMatrix::zeros(2, 2);
         couple(
@@ -93,6 +141,7 @@ impl TyreExample {
             physical_select: dmatrix![0.0, 1.0],
             stiffness: dmatrix![self.tyre_stiffness],
             damping: dmatrix![self.tyre_damping],
+            velocity,
         };
         let mut road = ExternalInput::new("road", "m", 0, 2, 1);
         road.interface_position[0] = 1.0;
@@ -192,6 +241,7 @@ impl AeroExample {
             physical_select: DMatrix::identity(2, 2),
             stiffness: -dmatrix![a[0][0], a[0][1]; a[1][0], a[1][1]],
             damping: DMatrix::zeros(2, 2),
+            velocity: VelocityEstimate::Continuous,
         };
         // Road: [z_r; θ_r] = L⁻¹ [r_f; r_r]; force on the body (C s + K)[z_r; θ_r].
         let mut inputs = Vec::new();
@@ -286,6 +336,7 @@ impl TwoDofExample {
             physical_select: dmatrix![1.0],
             stiffness: dmatrix![self.interface_stiffness],
             damping: dmatrix![self.interface_damping],
+            velocity: VelocityEstimate::Continuous,
         };
         let mut z_n = ExternalInput::new("z_n", "m", 1, 1, 1);
         z_n.numerical_stiffness[0] = self.numerical_stiffness;

@@ -16,6 +16,7 @@
 //! Units: SI; frequencies in Hz; phases in degrees; the Laplace variable in rad/s.
 
 pub mod analyze;
+pub mod design;
 pub mod error;
 pub mod examples;
 pub mod filter_file;
@@ -31,5 +32,5 @@ pub use reference_actuator::ServoHydraulicActuator;
 pub use response::{CommandFilter, ResponseSource};
 pub use system::{
     ActuatorControl, Actuators, ImpedanceLocation, Interface, Loop, LoopPoint, MechanicalPart,
-    MilSystem, Stability,
+    MilSystem, Stability, VelocityEstimate,
 };

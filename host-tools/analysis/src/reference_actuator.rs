@@ -80,9 +80,10 @@ impl ServoHydraulicActuator {
     /// - `A = 1.2e-3 m²`: 25 kN at 210 bar, enough for a racing car's corner load with margin.
     /// - `V = 3.0e-4 m³`, `β = 1.0e9 Pa`: a 0.1 m stroke cylinder plus manifold and hose
     ///   volume; effective (not pure-oil) bulk modulus. Hydraulic stiffness `k_h ≈ 19 kN/mm`.
-    /// - `K_q = 1.0e-3 m³/s` (60 l/min), `K_c = 1e-12 m³/(s·Pa)`: a two-stage servovalve
+    /// - `K_q = 1.0e-3 m³/s` (60 l/min), `K_c = 1e-13 m³/(s·Pa)`: a two-stage servovalve
     ///   sized for 0.8 m/s; small leakage.
-    /// - Valve 45 Hz, `ζ_v = 0.7`: a rugged two-stage valve (its −90° frequency).
+    /// - Valve 100 Hz, `ζ_v = 0.7`: a high-response two-stage valve (its −90° frequency),
+    ///   as motorsport rigs use.
     /// - `m_a = 6 kg`, `c_a = 600 N·s/m`: piston, rod and load-cell adaptor; seal friction.
     /// - `K_p`, `K_i`, `κ`: tuned so that the tyre example gives the paper's figures (body
     ///   bounce captured, a lightly damped MiL resonance near 17 Hz, open-loop phase lag beyond

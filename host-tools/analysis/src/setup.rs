@@ -6,6 +6,9 @@
 //! name = "tyre"
 //! [model]
 //! example = "tyre"            # "tyre" | "aero" | "two-dof" | "custom"
+//! [model.tyre]                # optional: any TyreExample field, paper values by default
+//! velocity_cutoff_hz = 500.0  # board's tyre velocity low-pass (Hz), 0 = plain difference
+//! velocity_estimate = "board" # "board" (default) | "continuous" (c_t s)
 //! [actuator]
 //! control = "force"           # "force" | "position"
 //! tracking = "reference"      # or { numerator = [..], denominator = [..], delay_s = 0.0 }
@@ -24,8 +27,26 @@
 //!
 //! A `custom` model gives `[numerical]` and `[physical]` (`dofs`, `mass`, `damping`,
 //! `stiffness` matrices), `[interface]` (`location`, `numerical_dofs`, `physical_dofs`,
-//! `stiffness`, `damping`) and `[[inputs]]` (`name`, `unit`, `forces` on DOFs, and for a
-//! numerical part without DOFs `interface_position`).
+//! `stiffness`, `damping`, optional `velocity_cutoff_hz`) and `[[inputs]]` (`name`, `unit`,
+//! `forces` on DOFs, and for a numerical part without DOFs `interface_position`).
+//!
+//! # The numerical model's velocity
+//! The board's tyre does not differentiate: it multiplies `c_t` by model-core's velocity
+//! estimate of the sampled deflection (backward difference and first-order low-pass,
+//! `model_core::velocity`). The MiL analysis of the `tyre` example models that estimator
+//! exactly ([`crate::system::VelocityEstimate::Board`]: its discrete response at the
+//! controller's sample period `1/sample_rate_hz` (s), from model-core's own `f32`
+//! coefficients), with the cut-off `[model.tyre] velocity_cutoff_hz` (Hz; default 500, the
+//! model-core tyre's `TyreParams::PAPER`; 0 = plain backward difference; 0 to 20000 Hz, and
+//! `sample_rate_hz` 100 Hz to 20 kHz, as the board accepts). Give it the value the board
+//! runs, e.g. the `mil run` configuration's `[tyre] velocity_cutoff_hz` (200 Hz in
+//! `host-tools/mil/examples/tyre.toml`). `velocity_estimate = "continuous"` analyses the
+//! ideal `c_t s` instead, and so does the tyre under position control (configuration 3: the
+//! numerical tyre then turns the measured force into a position through `B_i⁻¹`, integrated,
+//! without a velocity estimate). A `custom` model is continuous (`C_i s`) unless
+//! `[interface]` gives `velocity_cutoff_hz` (Hz), which is allowed for a numerical `B_i`
+//! with a numerical part without DOFs under force control (configuration 4, the tyre's
+//! form). The emulated system always uses `C_i s`.
 
 use crate::analyze::{AnalysisOptions, ResponseSpec, Signal};
 use crate::error::{setup_error, AnalysisError, Result};
@@ -35,7 +56,7 @@ use crate::poly::Rational;
 use crate::response::{CommandFilter, ResponseSource};
 use crate::system::{
     ActuatorControl, Actuators, ExternalInput, ImpedanceLocation, Interface, MechanicalPart,
-    MilSystem,
+    MilSystem, VelocityEstimate,
 };
 use crate::ServoHydraulicActuator;
 use mil_identify::FrfTable;
@@ -121,6 +142,9 @@ pub struct InterfaceSection {
     pub stiffness: Vec<Vec<f64>>,
     /// `C_i` (N·s/m), rows.
     pub damping: Vec<Vec<f64>>,
+    /// Cut-off (Hz) of the board's velocity estimator that computes the velocity multiplying
+    /// `C_i` (0: plain backward difference); none: the continuous `C_i s`.
+    pub velocity_cutoff_hz: Option<f64>,
 }
 
 /// A force from an input onto a DOF: `(stiffness + damping s) w`.
@@ -320,7 +344,7 @@ fn selector(part: &MechanicalPart, dofs: &[String], what: &str) -> Result<DMatri
     Ok(q)
 }
 
-fn custom_structure(file: &SetupFile) -> Result<Structure> {
+fn custom_structure(file: &SetupFile, sample_period_s: f64) -> Result<Structure> {
     let numerical = match &file.numerical {
         Some(p) => part(p, "numerical")?,
         None => MechanicalPart::massless(),
@@ -352,7 +376,22 @@ fn custom_structure(file: &SetupFile) -> Result<Structure> {
         physical_select: selector(&physical, &i.physical_dofs, "interface physical_dofs")?,
         stiffness: matrix(&i.stiffness, "interface stiffness")?,
         damping: matrix(&i.damping, "interface damping")?,
+        velocity: match i.velocity_cutoff_hz {
+            None => VelocityEstimate::Continuous,
+            Some(cutoff_hz) => VelocityEstimate::Board {
+                sample_period_s,
+                cutoff_hz,
+            },
+        },
     };
+    if interface.velocity.coefficients().is_err() {
+        return Err(setup_error(format!(
+            "interface velocity_cutoff_hz = {} Hz at a sample period of {sample_period_s} s: \
+             the board's estimator needs a cut-off of 0 (plain backward difference) to \
+             20000 Hz and a sample period of 5e-5 to 1e-2 s (100 Hz to 20 kHz)",
+            i.velocity_cutoff_hz.unwrap_or_default()
+        )));
+    }
     let mut inputs = Vec::new();
     for s in &file.inputs {
         let mut input = ExternalInput::new(&s.name, &s.unit, numerical.len(), physical.len(), m);
@@ -465,11 +504,15 @@ impl Setup {
     /// # Errors
     /// Any inconsistency (named).
     pub fn from_file(file: &SetupFile, folder: &Path) -> Result<Self> {
+        let fs = file.controller.sample_rate_hz;
+        if !(fs.is_finite() && fs > 0.0) {
+            return Err(setup_error("controller sample_rate_hz must be > 0"));
+        }
         let structure = match file.model.example.as_str() {
-            "tyre" => file.model.tyre.structure()?,
+            "tyre" => file.model.tyre.structure(1.0 / fs)?,
             "aero" => file.model.aero.structure()?,
             "two-dof" => file.model.two_dof.structure()?,
-            "custom" => custom_structure(file)?,
+            "custom" => custom_structure(file, 1.0 / fs)?,
             other => {
                 return Err(setup_error(format!(
                     "model example {other:?}: use \"tyre\", \"aero\", \"two-dof\" or \"custom\""
@@ -482,10 +525,6 @@ impl Setup {
             return Err(setup_error(
                 "[numerical], [physical] and [interface] belong to example = \"custom\"",
             ));
-        }
-        let fs = file.controller.sample_rate_hz;
-        if !(fs.is_finite() && fs > 0.0) {
-            return Err(setup_error("controller sample_rate_hz must be > 0"));
         }
         let control = match file.actuator.control.as_str() {
             "force" => ActuatorControl::Force,
@@ -517,6 +556,12 @@ impl Setup {
             loop_delay_s,
         };
         let mut system = structure.with_actuators(actuators);
+        if file.model.example == "tyre" && control == ActuatorControl::Position {
+            // Under position control (configuration 3) the numerical tyre turns the measured
+            // force into a position through B_i⁻¹ (integrated, no velocity estimate): what
+            // the board computes is then modelled by the continuous B_i.
+            system.interface.velocity = VelocityEstimate::Continuous;
+        }
         if let Some(filter) = &file.controller.filter {
             let (ff, cascade) = FilterFile::read(&folder.join(filter))?;
             if (ff.sample_rate_hz - fs).abs() > 1e-9 * fs {

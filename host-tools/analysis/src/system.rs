@@ -6,8 +6,30 @@
 //!
 //! ```text
 //! A_n(s) x_n = F_n − Q_nᵀ F_i        A_p(s) x_p = F_p + Q_pᵀ F_i
-//! A(s) = M s² + C s + K               B_i(s) = C_i s + K_i
+//! A(s) = M s² + C s + K               B_i(s) = C_i V(s) + K_i
 //! ```
+//!
+//! `V(s)` is how the interface velocity is obtained ([`VelocityEstimate`]): `V(s) = s` for a
+//! physical `B_i` and for an ideal numerical one; for a numerical `B_i` computed by the
+//! board from sampled positions (the tyre), `V(s) = D(e^{sT})`, the exact discrete response
+//! of model-core's velocity estimator (backward difference and first-order low-pass,
+//! `model_core::velocity`) at the controller sample period `T` (s):
+//!
+//! ```text
+//! D(z) = (1 − z⁻¹)/T · g / (1 − (1 − g) z⁻¹),   g = 1 − e^{−2π f_c T}   (g = 1: f_c = 0)
+//! ```
+//!
+//! with `1/T` and `g` the board's own `f32` coefficients
+//! (`model_core::VelocityFilterCoefficients`). `D(e^{sT})` is analytic right of
+//! `Re s = ln(1 − g)/T < 0`, so it is evaluated on complex `s` like every other block and the
+//! stability count ([`MilSystem::stability`]) stays valid. At 2 kHz it lags `s` by 2.3° at
+//! 17 Hz with the board's default 500 Hz cut-off (5.0° at 200 Hz; `ωT/2` = 1.5° for a plain
+//! difference), which moves the tyre example's MiL response near its 17 Hz resonance by
+//! 0.36 dB and 1.4° and its gain margin from 1.398 to 1.380 (the integration test
+//! `analysis_consistency` checks the analysis against the board's controller step in a
+//! time-domain loop); and its gain is bounded at the Nyquist frequency where `|s|` is not (a
+//! lower control sensitivity to measurement noise). The estimator is part of the MiL implementation: the
+//! emulated system (the ideal coupling that MiL emulates) keeps `V(s) = s`.
 //!
 //! External inputs `w` (road displacements, forces) act through `F_n = E_n(s) w`,
 //! `F_p = E_p(s) w` with `E(s) = C_e s + K_e`, and, for a numerical part without masses
@@ -31,10 +53,11 @@
 //! so that `y = (I − G N_u H_c)⁻¹ G [(N_w + N_u H_w) w + N_u n]`. Breaking the loop at the
 //! numerical model's summing junction gives the open-loop matrix `L = −G N_u H_c`
 //! (negative-feedback convention: the return difference is `I + L`). The emulated system
-//! is the same with `P = I`, `R = 0`, `G = 1`, `n = 0`.
+//! is the same with `P = I`, `R = 0`, `G = 1`, `n = 0` and `V(s) = s`.
 
 use crate::error::{setup_error, AnalysisError, Result};
 use crate::response::{CommandFilter, ResponseSource};
+use model_core::VelocityFilterCoefficients;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -213,6 +236,82 @@ pub enum ActuatorControl {
     Force,
 }
 
+/// How the numerical model obtains the interface velocity that multiplies `C_i` (module
+/// docs): `B_i(s) = C_i V(s) + K_i`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityEstimate {
+    /// `V(s) = s`: a continuous derivative (a physical `B_i`, or an ideal numerical model).
+    #[default]
+    Continuous,
+    /// `V(s) = D(e^{sT})`: the board's velocity estimator (`model_core::velocity`: backward
+    /// difference and first-order low-pass) applied to the sampled interface deflection, with
+    /// its `f32` coefficients as the board computes them. Valid only for a numerical `B_i`
+    /// with a numerical part without DOFs under force control (configuration 4, the tyre:
+    /// `F_i = K_i δ + C_i D δ̂` with `δ` the sampled deflection). Used in the MiL loop; the
+    /// emulated loop keeps `V(s) = s`.
+    Board {
+        /// Controller sample period `T` (s); model-core's range, 5e-5 to 1e-2 s.
+        sample_period_s: f64,
+        /// Cut-off of the estimator's low-pass (Hz), 0 for a plain backward difference; the
+        /// range of `model_core::velocity::VELOCITY_CUTOFF` (0–20 kHz).
+        cutoff_hz: f64,
+    },
+}
+
+impl VelocityEstimate {
+    /// The board's estimator coefficients, exactly as model-core derives them (`f32`),
+    /// `None` for [`VelocityEstimate::Continuous`].
+    ///
+    /// # Errors
+    /// A sample period or cut-off that model-core refuses (named).
+    pub fn coefficients(&self) -> Result<Option<VelocityFilterCoefficients>> {
+        match *self {
+            Self::Continuous => Ok(None),
+            Self::Board {
+                sample_period_s,
+                cutoff_hz,
+            } => VelocityFilterCoefficients::new(cutoff_hz as f32, sample_period_s as f32)
+                .map(Some)
+                .map_err(|e| {
+                    setup_error(format!(
+                        "board velocity estimate: model-core refuses a cut-off of {cutoff_hz} Hz \
+                         at a sample period of {sample_period_s} s ({e:?}): the cut-off must be \
+                         0 (plain backward difference) to 20000 Hz, the sample period 5e-5 to \
+                         1e-2 s"
+                    ))
+                }),
+        }
+    }
+
+    /// `V(s)` (1/s) at a complex `s` (rad/s): `s`, or the board estimator's `D(e^{sT})`.
+    ///
+    /// # Errors
+    /// As [`VelocityEstimate::coefficients`].
+    pub fn response_s(&self, s: Complex64) -> Result<Complex64> {
+        let Self::Board {
+            sample_period_s, ..
+        } = *self
+        else {
+            return Ok(s);
+        };
+        let v = self
+            .coefficients()?
+            .ok_or_else(|| setup_error("velocity estimate without coefficients"))?;
+        let z_inv = (-s * sample_period_s).exp();
+        let g = f64::from(v.gain);
+        Ok(f64::from(v.inv_dt) * g * (1.0 - z_inv) / (1.0 - (1.0 - g) * z_inv))
+    }
+
+    /// `V(j 2π f)` (1/s) at `frequency_hz` (Hz).
+    ///
+    /// # Errors
+    /// As [`VelocityEstimate::coefficients`].
+    pub fn response(&self, frequency_hz: f64) -> Result<Complex64> {
+        self.response_s(Complex64::new(0.0, TAU * frequency_hz))
+    }
+}
+
 /// The interface between the numerical and the physical part.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Interface {
@@ -226,6 +325,9 @@ pub struct Interface {
     pub stiffness: DMatrix<f64>,
     /// `C_i` (m × m, N·s/m).
     pub damping: DMatrix<f64>,
+    /// How the velocity multiplying `C_i` is obtained in the MiL loop (default
+    /// [`VelocityEstimate::Continuous`]).
+    pub velocity: VelocityEstimate,
 }
 
 impl Interface {
@@ -234,9 +336,19 @@ impl Interface {
         self.stiffness.nrows()
     }
 
-    /// `B_i(s)`.
+    /// `B_i(s) = C_i s + K_i`, the continuous impedance (the emulated system's).
     pub fn impedance(&self, s: Complex64) -> CMatrix {
         complexify(&self.damping) * s + complexify(&self.stiffness)
+    }
+
+    /// `B_i(s) = C_i V(s) + K_i` with the velocity as the numerical model obtains it
+    /// ([`Interface::velocity`]): the MiL loop's impedance.
+    ///
+    /// # Errors
+    /// An invalid [`VelocityEstimate`].
+    pub fn impedance_estimated(&self, s: Complex64) -> Result<CMatrix> {
+        let v = self.velocity.response_s(s)?;
+        Ok(complexify(&self.damping) * v + complexify(&self.stiffness))
     }
 }
 
@@ -278,9 +390,11 @@ pub struct MilSystem {
 /// Which loop to evaluate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Loop {
-    /// The real MiL system: actuator responses, filter, delay.
+    /// The real MiL system: actuator responses, filter, delay, and the numerical model's
+    /// velocity estimate ([`Interface::velocity`]).
     Mil,
-    /// The emulated system: perfect actuators (`P = I`, `R = 0`), no filter, no delay.
+    /// The emulated system: perfect actuators (`P = I`, `R = 0`), no filter, no delay, and
+    /// the continuous interface velocity `V(s) = s` (no velocity estimator).
     Emulated,
 }
 
@@ -413,6 +527,18 @@ impl MilSystem {
                  part: the numerical model must turn a measured position into a force",
             ));
         }
+        if let VelocityEstimate::Board { .. } = i.velocity {
+            i.velocity.coefficients()?;
+            if self.configuration() != 4 || nn != 0 {
+                return Err(setup_error(
+                    "the board's velocity estimate is modelled for a numerical B_i with a \
+                     numerical part without DOFs under force control (configuration 4, the \
+                     tyre: F_i = K_i δ + C_i D δ̂ from the sampled deflection δ̂); use the \
+                     continuous velocity otherwise (in a set-up file: no interface \
+                     velocity_cutoff_hz)",
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -474,7 +600,10 @@ impl MilSystem {
         let m = self.channels();
         let eye = CMatrix::identity(m, m);
         let (en, ep, gw) = self.input_matrices(s);
-        let b = self.interface.impedance(s);
+        let b = match which {
+            Loop::Mil => self.interface.impedance_estimated(s)?,
+            Loop::Emulated => self.interface.impedance(s),
+        };
         let qn = complexify(&self.interface.numerical_select);
         let qp = complexify(&self.interface.physical_select);
         let an = self.numerical.dynamic_stiffness(s);
