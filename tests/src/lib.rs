@@ -1,5 +1,11 @@
 //! Host-side integration tests live in `tests/`; this library holds their shared
 //! f64 reference implementations.
+//!
+//! - [`ReferenceSystem`]: an f64 discrete state-space reference.
+//! - [`linear_rig`]: the reference servo-hydraulic actuator on a quarter car, in the time
+//!   domain.
+
+pub mod linear_rig;
 
 use nalgebra::{DMatrix, DVector};
 
