@@ -8,6 +8,7 @@
 
 pub mod analyze;
 pub mod config;
+pub mod design_filter;
 pub mod identify;
 pub mod plot;
 pub mod run;

@@ -44,6 +44,38 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Design the actuator command filter for a set-up (the paper's least-squares fit, or
+    /// the optimised accuracy/noise trade-off) and write the filter file the firmware and
+    /// `[controller] filter` load, with plots next to it.
+    DesignFilter {
+        /// Set-up file (TOML), as for `mil analyze`.
+        setup: PathBuf,
+        /// `ls`: least-squares fit; `optimal`: trade-off front, exports the most accurate
+        /// design meeting the target.
+        #[arg(long, value_enum, default_value = "ls")]
+        method: mil::design_filter::Method,
+        /// Filter file to write (JSON); the plots go to the same folder.
+        #[arg(long, default_value = "out/design-filter/filter.json")]
+        out: PathBuf,
+        /// Roll-off frequency of the filter's poles (Hz).
+        #[arg(long)]
+        rolloff_hz: Option<f64>,
+        /// Damping ratio of the roll-off pole pairs.
+        #[arg(long)]
+        rolloff_damping: Option<f64>,
+        /// Number of poles (1-8).
+        #[arg(long)]
+        poles: Option<usize>,
+        /// Number of zeros (< poles).
+        #[arg(long)]
+        zeros: Option<usize>,
+        /// Trade-off weights for `optimal` (comma-separated, 0-1).
+        #[arg(long, value_delimiter = ',')]
+        weights: Option<Vec<f64>>,
+        /// Print one JSON object with the figures instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Identify an actuator's frequency response from test records (sine sweep and/or random
     /// noise; H1 estimate, Welch averaging, coherence) and write the table `mil analyze`
     /// reads (`[actuator] tracking = { table = "..." }`).
@@ -109,6 +141,51 @@ fn main() -> Result<()> {
                 print!("{}", result.table());
                 println!("time histories: {}", csv.display());
                 println!("plot:           {}", svg.display());
+            }
+            Ok(())
+        }
+        Command::DesignFilter {
+            setup,
+            method,
+            out,
+            rolloff_hz,
+            rolloff_damping,
+            poles,
+            zeros,
+            weights,
+            json,
+        } => {
+            let paper = mil_analysis::design::FilterStructure::PAPER;
+            let structure = mil_analysis::design::FilterStructure {
+                rolloff_hz: rolloff_hz.unwrap_or(paper.rolloff_hz),
+                rolloff_damping: rolloff_damping.unwrap_or(paper.rolloff_damping),
+                poles: poles.unwrap_or(paper.poles),
+                zeros: zeros.unwrap_or(paper.zeros),
+            };
+            let request = mil::design_filter::DesignRequest {
+                method,
+                out,
+                structure: Some(structure),
+                weights,
+            };
+            let bar = if json || method == mil::design_filter::Method::Ls {
+                ProgressBar::hidden()
+            } else {
+                ProgressBar::new(1).with_style(
+                    ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}")
+                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                )
+            };
+            bar.set_message("optimising over the weights");
+            let result = mil::design_filter::run_design_filter(&setup, &request, |i, n| {
+                bar.set_length(n as u64);
+                bar.set_position(i as u64);
+            })?;
+            bar.finish_and_clear();
+            if json {
+                println!("{}", serde_json::to_string(&result.summary)?);
+            } else {
+                print!("{}", result.table());
             }
             Ok(())
         }

@@ -1,0 +1,133 @@
+//! `mil design-filter` end to end: the JSON figures, the filter file, the plots, and the
+//! filter used by `mil analyze` through `[controller] filter`.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn example(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/analyze")
+        .join(name)
+}
+
+fn run_json(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_mil"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The JSON fields are present and finite, the filter file loads (model-core's own
+/// checks), the plots exist, and analysing the set-up with the exported filter gives the
+/// same gain margin as the design reports (to 2 %: the design's margin grid is coarser).
+#[test]
+fn design_filter_writes_a_filter_that_analyze_uses() {
+    let dir = tempfile::tempdir().unwrap();
+    let filter = dir.path().join("tyre-filter.json");
+    let json = run_json(&[
+        "design-filter",
+        example("tyre.toml").to_str().unwrap(),
+        "--out",
+        filter.to_str().unwrap(),
+        "--json",
+    ]);
+    for key in [
+        "phase_lag_reduction_pct",
+        "magnitude_error_db",
+        "noise_sensitivity_ratio",
+        "gain_margin_with_filter",
+    ] {
+        assert!(
+            json[key].as_f64().is_some_and(f64::is_finite),
+            "{key}: {json}"
+        );
+    }
+    assert_eq!(json["stability_with_filter"], "stable");
+    let (file, cascade) = mil_analysis::filter_file::FilterFile::read(&filter).unwrap();
+    assert_eq!(file.sample_rate_hz, 2000.0);
+    assert_eq!(
+        cascade.active().len(),
+        json["sections"].as_u64().unwrap() as usize
+    );
+    for plot in [
+        "filter.svg",
+        "response-with-filter.svg",
+        "noise-sensitivity-filter.svg",
+    ] {
+        assert!(dir.path().join(plot).is_file(), "{plot}");
+    }
+
+    // The same set-up with the filter, analysed.
+    let text = std::fs::read_to_string(example("tyre.toml")).unwrap();
+    let with_filter = text.replace(
+        "sample_rate_hz = 2000.0",
+        "sample_rate_hz = 2000.0\nfilter = \"tyre-filter.json\"",
+    );
+    assert_ne!(text, with_filter);
+    let setup = dir.path().join("tyre-with-filter.toml");
+    std::fs::write(&setup, with_filter).unwrap();
+    let analysed = run_json(&[
+        "analyze",
+        setup.to_str().unwrap(),
+        "--out",
+        dir.path().join("analyze").to_str().unwrap(),
+        "--json",
+    ]);
+    let (a, d) = (
+        analysed["gain_margin"].as_f64().unwrap(),
+        json["gain_margin_with_filter"].as_f64().unwrap(),
+    );
+    assert!((a - d).abs() < 0.02 * d, "analyze {a} vs design {d}");
+    assert_eq!(analysed["stability"], "stable");
+}
+
+/// `--method optimal` reports the target and the front and writes the trade-off plot.
+#[test]
+fn optimal_method_reports_the_front_and_the_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let filter = dir.path().join("opt.json");
+    let json = run_json(&[
+        "design-filter",
+        example("tyre.toml").to_str().unwrap(),
+        "--method",
+        "optimal",
+        "--weights",
+        "0,0.5,0.9",
+        "--out",
+        filter.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(json["front"].as_array().unwrap().len(), 3);
+    assert_eq!(json["target_met"], true);
+    assert!(json["noise_sensitivity_ratio"].as_f64().unwrap() <= 10.0);
+    assert!(dir.path().join("pareto.svg").is_file());
+}
+
+/// Bad structures are refused with a message, and nothing is written.
+#[test]
+fn impossible_structure_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let filter = dir.path().join("bad.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_mil"))
+        .args([
+            "design-filter",
+            example("tyre.toml").to_str().unwrap(),
+            "--poles",
+            "2",
+            "--zeros",
+            "2",
+            "--out",
+            filter.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("zeros < poles"));
+    assert!(!filter.exists());
+}
