@@ -306,7 +306,8 @@ struct Baseline {
     above_emulated: Vec<Complex64>,
 }
 
-fn with_filter(system: &MilSystem, filter: Option<CommandFilter>) -> MilSystem {
+/// A copy of `system` with `filter` in place of its command filter.
+pub fn with_filter(system: &MilSystem, filter: Option<CommandFilter>) -> MilSystem {
     let mut s = system.clone();
     s.filter = filter;
     s
@@ -345,8 +346,12 @@ impl Baseline {
     }
 }
 
-/// The actuator tracking response times the loop delay at `f` (Hz), first channel.
-fn command_path(system: &MilSystem, frequency_hz: f64) -> Result<Complex64> {
+/// The command path without filter at `frequency_hz` (Hz): the actuator tracking response
+/// times the loop delay (the same on every channel).
+///
+/// # Errors
+/// A tracking table that does not cover the frequency.
+pub fn command_path(system: &MilSystem, frequency_hz: f64) -> Result<Complex64> {
     let p = system.actuators.tracking.response(frequency_hz)?;
     Ok(p * Complex64::from_polar(1.0, -TAU * frequency_hz * system.actuators.loop_delay_s))
 }

@@ -3,13 +3,13 @@
 
 use anyhow::{bail, Context, Result};
 use mil_analysis::design::{
-    design_ls, design_optimal, DesignOptions, DesignTarget, FilterDesign, FilterFigures,
-    FilterStructure, DEFAULT_WEIGHTS,
+    command_path, design_ls, design_optimal, with_filter, DesignOptions, DesignTarget,
+    FilterDesign, FilterFigures, FilterStructure, DEFAULT_WEIGHTS,
 };
 use mil_analysis::filter_file::FilterFile;
 use mil_analysis::metrics::log_grid;
 use mil_analysis::setup::Setup;
-use mil_analysis::{CommandFilter, Loop, LoopPoint, MilSystem};
+use mil_analysis::{Loop, LoopPoint, MilSystem};
 use mil_plots::{
     bode_page_svg, bode_svg, xy_svg, Annotation, BodePlot, BodeSeries, MagnitudeScale, Marker,
     SeriesStyle, XyPlot, XySeries,
@@ -223,12 +223,6 @@ fn series(label: &str, f: &[f64], h: Vec<Complex64>, dashed: bool) -> BodeSeries
     }
 }
 
-fn with_filter(system: &MilSystem, filter: Option<CommandFilter>) -> MilSystem {
-    let mut s = system.clone();
-    s.filter = filter;
-    s
-}
-
 /// Writes the plots of a design; returns the files.
 fn write_plots(
     setup: &Setup,
@@ -247,13 +241,7 @@ fn write_plots(
     // Filter and actuator-with-filter tracking response.
     let path_without: Vec<Complex64> = grid
         .iter()
-        .map(|&f| {
-            let p = setup.system.actuators.tracking.response(f)?;
-            Ok(p * Complex64::from_polar(
-                1.0,
-                -std::f64::consts::TAU * f * setup.system.actuators.loop_delay_s,
-            ))
-        })
+        .map(|&f| command_path(&setup.system, f))
         .collect::<mil_analysis::Result<_>>()?;
     let f_resp: Vec<Complex64> = grid.iter().map(|&f| filter.response(f)).collect();
     let path_with: Vec<Complex64> = f_resp
