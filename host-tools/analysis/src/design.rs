@@ -103,23 +103,13 @@ impl FilterStructure {
     fn denominator_normalised(&self) -> Vec<f64> {
         let mut d = vec![1.0];
         for _ in 0..self.poles / 2 {
-            d = mul_ascending(&d, &[1.0, 2.0 * self.rolloff_damping, 1.0]);
+            d = crate::poly::mul(&d, &[1.0, 2.0 * self.rolloff_damping, 1.0]);
         }
         if self.poles % 2 == 1 {
-            d = mul_ascending(&d, &[1.0, 1.0]);
+            d = crate::poly::mul(&d, &[1.0, 1.0]);
         }
         d
     }
-}
-
-fn mul_ascending(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; a.len() + b.len() - 1];
-    for (i, x) in a.iter().enumerate() {
-        for (j, y) in b.iter().enumerate() {
-            out[i + j] += x * y;
-        }
-    }
-    out
 }
 
 fn eval_ascending(c: &[f64], x: Complex64) -> Complex64 {
@@ -304,6 +294,12 @@ struct Baseline {
     margin_grid: Vec<f64>,
     above_grid: Vec<f64>,
     above_emulated: Vec<Complex64>,
+    /// Control sensitivity without filter on `noise_grid`.
+    noise_without: Vec<f64>,
+    /// Reported gain margin of the MiL loop without filter.
+    gain_margin_without: Option<f64>,
+    /// RMS MiL-vs-emulated error without filter (%).
+    response_error_without_pct: f64,
 }
 
 /// A copy of `system` with `filter` in place of its command filter.
@@ -333,7 +329,11 @@ impl Baseline {
             .iter()
             .map(|&f| Ok(pick(&system.point(f, Loop::Emulated)?)))
             .collect::<Result<Vec<_>>>()?;
-        Ok(Self {
+        let noise_without = noise_trace(system, &noise_grid)?;
+        let gain_margin_without = gain_margin(system, &margin_grid)?
+            .reported_gain_margin(system.stability(Loop::Mil))
+            .0;
+        let mut base = Self {
             above_grid,
             above_emulated,
             band_grid,
@@ -342,7 +342,12 @@ impl Baseline {
             emulated,
             noise_grid,
             margin_grid,
-        })
+            noise_without,
+            gain_margin_without,
+            response_error_without_pct: 0.0,
+        };
+        base.response_error_without_pct = response_error_pct(system, &base, pick)?;
+        Ok(base)
     }
 }
 
@@ -441,13 +446,11 @@ fn figures_with(
         .collect();
     let lag_without = mean_abs_phase_deg(&base.command_path);
     let lag_with = mean_abs_phase_deg(&path_with);
-    let noise_without = noise_trace(bare, &base.noise_grid)?;
+    let noise_without = &base.noise_without;
     let noise_with = noise_trace(&filtered, &base.noise_grid)?;
-    let (iw, io) = (argmax(&noise_with), argmax(&noise_without));
-    let margins_without = gain_margin(bare, &base.margin_grid)?;
+    let (iw, io) = (argmax(&noise_with), argmax(noise_without));
     let margins_with = gain_margin(&filtered, &base.margin_grid)?;
     let stability_with_filter = filtered.stability(Loop::Mil);
-    let stability_without = bare.stability(Loop::Mil);
     let gm_with = margins_with.reported_gain_margin(stability_with_filter);
     let above = base
         .above_grid
@@ -468,12 +471,12 @@ fn figures_with(
         noise_peak_with_hz: base.noise_grid[iw],
         noise_sensitivity_ratio: noise_with[iw] / noise_without[io],
         noise_ratio_at_peak: noise_with[iw] / noise_without[iw],
-        gain_margin_without: margins_without.reported_gain_margin(stability_without).0,
+        gain_margin_without: base.gain_margin_without,
         gain_margin_with_filter: gm_with.0,
         gain_margin_with_filter_hz: gm_with.1,
         phase_margin_with_filter_deg: margins_with.phase_margin_deg,
         stability_with_filter,
-        response_error_without_pct: response_error_pct(bare, base, pick)?,
+        response_error_without_pct: base.response_error_without_pct,
         response_error_with_pct: response_error_pct(&filtered, base, pick)?,
         out_of_band_amplification: above[ia],
         out_of_band_amplification_hz: base.above_grid[ia],
@@ -600,12 +603,14 @@ pub fn design_ls(
 ) -> Result<FilterDesign> {
     options.validate()?;
     let bare = with_filter(system, None);
+    let base = Baseline::new(&bare, options, pick)?;
     let continuous = fit_numerator(&bare, options.structure, options)?;
-    finish(&bare, continuous, options, pick)
+    finish(&bare, &base, continuous, options, pick)
 }
 
 fn finish(
     bare: &MilSystem,
+    base: &Baseline,
     continuous: ContinuousFilter,
     options: &DesignOptions,
     pick: &ResponsePick,
@@ -615,8 +620,7 @@ fn finish(
         cascade,
         sample_period_s: 1.0 / options.sample_rate_hz,
     };
-    let base = Baseline::new(bare, options, pick)?;
-    let figures = figures_with(bare, &base, &filter, pick)?;
+    let figures = figures_with(bare, base, &filter, pick)?;
     Ok(FilterDesign {
         continuous,
         cascade,
@@ -858,9 +862,10 @@ pub fn design_optimal(
         return Err(design_error("weights must lie in 0…1"));
     }
     let bare = with_filter(system, None);
-    let least_squares = design_ls(&bare, options, pick)?;
-    let ls = &least_squares.continuous;
     let base = Baseline::new(&bare, options, pick)?;
+    let continuous = fit_numerator(&bare, options.structure, options)?;
+    let least_squares = finish(&bare, &base, continuous, options, pick)?;
+    let ls = &least_squares.continuous;
     let objective = Objective {
         bare: &bare,
         error_scale: least_squares.figures.response_error_with_pct.max(1e-9),
@@ -894,7 +899,7 @@ pub fn design_optimal(
         // Warm start from the previous weight's optimum: the front is traced continuously.
         x = nelder_mead(|p| objective.cost(p, w), &x, &step, 80 * (x.len() + 1));
         if let Some(continuous) = objective.filter(&x) {
-            if let Ok(design) = finish(&bare, continuous, options, pick) {
+            if let Ok(design) = finish(&bare, &objective.base, continuous, options, pick) {
                 front.push(FrontPoint {
                     weight: w,
                     meets_target: target.met_by(&design.figures),

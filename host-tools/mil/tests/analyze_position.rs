@@ -14,12 +14,13 @@
 //! (loop broken at the numerical model's summing junction, return difference `1 + L`).
 
 use mil_analysis::analyze::{analyze, AnalysisReport};
-use mil_analysis::poly::Rational;
+use mil_analysis::poly::{add, mul, Rational};
 use mil_analysis::setup::Setup;
 use mil_analysis::system::CMatrix;
 use mil_analysis::{
     ActuatorControl, ImpedanceLocation, Loop, MilSystem, ResponseSource, Stability,
 };
+use mil_discretise::polyval;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
@@ -52,34 +53,8 @@ fn read(name: &str) -> Setup {
 }
 
 // ---------------------------------------------------------------------------------------
-// Polynomials (descending powers of s) and hand-made checks on them.
-
-fn mul(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; a.len() + b.len() - 1];
-    for (i, x) in a.iter().enumerate() {
-        for (j, y) in b.iter().enumerate() {
-            out[i + j] += x * y;
-        }
-    }
-    out
-}
-
-fn add(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let n = a.len().max(b.len());
-    let mut out = vec![0.0; n];
-    for (k, x) in a.iter().rev().enumerate() {
-        out[n - 1 - k] += x;
-    }
-    for (k, y) in b.iter().rev().enumerate() {
-        out[n - 1 - k] += y;
-    }
-    out
-}
-
-fn polyval(p: &[f64], s: Complex64) -> Complex64 {
-    p.iter()
-        .fold(Complex64::new(0.0, 0.0), |acc, c| acc * s + c)
-}
+// Polynomials (descending powers of s; arithmetic from `mil_analysis::poly`) and hand-made
+// checks on them.
 
 /// Number of roots with positive real part, by the Routh–Hurwitz array (s scaled by
 /// 1000 rad/s for conditioning). Panics on a zero in the first column (a root on or very
