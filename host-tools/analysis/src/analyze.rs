@@ -190,6 +190,8 @@ pub struct AnalysisReport {
     pub configuration: u8,
     /// Interface channels.
     pub channels: usize,
+    /// The MiL loop's elements (actuator, delay, velocity estimate, command filter).
+    pub mil_loop: crate::system::LoopDescription,
     /// MiL loop figures.
     pub mil: LoopFigures,
     /// Emulated loop figures.
@@ -351,6 +353,7 @@ pub fn analyze(system: &MilSystem, options: &AnalysisOptions) -> Result<Analysis
     Ok(AnalysisReport {
         configuration: system.configuration(),
         channels: system.channels(),
+        mil_loop: system.describe_loop(),
         mil: LoopFigures::new(
             margins(&grid, &mil_loci),
             first.mil_resonances.clone(),

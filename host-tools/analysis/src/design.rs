@@ -40,7 +40,11 @@
 //! Minimises `J = (1 − w) E/E₀ + w S/S₀` over the numerator coefficients and the roll-off
 //! frequency and damping, where `E` is the response error, `S` the noise-sensitivity peak
 //! (60 Hz to Nyquist), `E₀`, `S₀` their values for the least-squares design, subject to
-//! the target's gain margin and command-path magnitude error (penalties) and a roll-off
+//! the target's gain margin and command-path magnitude error and an out-of-band
+//! amplification ([`FilterFigures::out_of_band_amplification`]) no worse than the
+//! least-squares design's (penalties: without the last, the error term, measured in the
+//! figures band, is cheapest to cut by pushing the lightly damped MiL resonance just above
+//! the band instead of damping it), and a roll-off
 //! between twice the fit band and a quarter of the sample rate, by Nelder–Mead from the
 //! least-squares design. Sweeping `w` gives the trade-off front; every point is
 //! discretised and its figures (including closed-loop stability) computed on the cascade.
@@ -708,6 +712,8 @@ struct Objective<'a> {
     dc: f64,
     poles: usize,
     rolloff_range_hz: (f64, f64),
+    /// Largest out-of-band amplification allowed: the least-squares design's (at least 1).
+    max_amplification: f64,
 }
 
 impl Objective<'_> {
@@ -736,7 +742,9 @@ impl Objective<'_> {
         })
     }
 
-    fn parts(&self, x: &[f64]) -> Option<(f64, f64, f64, f64)> {
+    /// `(response error %, noise peak, gain margin, magnitude error dB, out-of-band
+    /// amplification)` of the design `x`.
+    fn parts(&self, x: &[f64]) -> Option<(f64, f64, f64, f64, f64)> {
         let filter = self.filter(x)?;
         let magnitude_db = worst_db(
             &self
@@ -760,12 +768,21 @@ impl Objective<'_> {
             .ok()?
             .gain_margin
             .unwrap_or(f64::INFINITY);
-        Some((error, noise, gm, magnitude_db))
+        let amplification = self
+            .base
+            .above_grid
+            .iter()
+            .zip(&self.base.above_emulated)
+            .map(|(f, emu)| Some(((self.pick)(&sys.point(*f, Loop::Mil).ok()?) / emu).norm()))
+            .try_fold(0.0_f64, |m, v| Some(m.max(v?)))?;
+        Some((error, noise, gm, magnitude_db, amplification))
     }
 
     fn cost(&self, x: &[f64], weight: f64) -> f64 {
         match self.parts(x) {
-            Some((error, noise, gm, magnitude_db)) if error.is_finite() && noise.is_finite() => {
+            Some((error, noise, gm, magnitude_db, amplification))
+                if error.is_finite() && noise.is_finite() =>
+            {
                 let t = &self.target;
                 let penalty = if gm < t.min_gain_margin {
                     10.0 * (1.0 + t.min_gain_margin - gm)
@@ -773,6 +790,10 @@ impl Objective<'_> {
                     0.0
                 } + if magnitude_db > t.max_magnitude_error_db {
                     10.0 * (1.0 + magnitude_db - t.max_magnitude_error_db)
+                } else {
+                    0.0
+                } + if amplification > self.max_amplification {
+                    10.0 * amplification / self.max_amplification
                 } else {
                     0.0
                 };
@@ -878,6 +899,7 @@ pub fn design_optimal(
         zeros: ls.structure.zeros,
         dc: ls.numerator_normalised.first().copied().unwrap_or(1.0),
         poles: ls.structure.poles,
+        max_amplification: least_squares.figures.out_of_band_amplification.max(1.0),
     };
     let mut start: Vec<f64> = ls.numerator_normalised.iter().skip(1).copied().collect();
     start.push(ls.structure.rolloff_hz.ln());

@@ -10,6 +10,7 @@
 //! - [`system`]: the framework at one frequency ([`MilSystem::point`]).
 //! - [`metrics`]: grids, margins, resonances, band errors.
 //! - [`reference_actuator`]: the reference force-controlled servo-hydraulic actuator.
+//! - [`position_servo`]: the reference position-controlled servo-hydraulic actuator.
 //! - [`examples`]: the paper's tyre, aero and 2-DOF set-ups.
 //! - [`response`]: responses from models or measured tables; the command filter.
 //!
@@ -22,15 +23,17 @@ pub mod examples;
 pub mod filter_file;
 pub mod metrics;
 pub mod poly;
+pub mod position_servo;
 pub mod reference_actuator;
 pub mod response;
 pub mod setup;
 pub mod system;
 
 pub use error::{AnalysisError, Result};
+pub use position_servo::PositionServoActuator;
 pub use reference_actuator::ServoHydraulicActuator;
 pub use response::{CommandFilter, ResponseSource};
 pub use system::{
-    ActuatorControl, Actuators, ImpedanceLocation, Interface, Loop, LoopPoint, MechanicalPart,
-    MilSystem, Stability, VelocityEstimate,
+    ActuatorControl, Actuators, ImpedanceLocation, Interface, Loop, LoopDescription, LoopPoint,
+    MechanicalPart, MilSystem, Stability, VelocityEstimate,
 };

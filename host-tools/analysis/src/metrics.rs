@@ -96,7 +96,9 @@ pub struct Margins {
     pub gain_reduction_margin: Option<f64>,
     /// Frequency of that phase crossover (Hz).
     pub gain_reduction_margin_hz: Option<f64>,
-    /// Smallest `180° + ∠L` (wrapped to (−180°, 180°]) where `|L|` crosses 1 (degrees).
+    /// Smallest phase margin over the gain crossovers (where `|L|` crosses 1), degrees: the
+    /// angle between `L` and the critical point −1 there (0…180°), negative where the lag
+    /// (unwrapped from low frequency) is beyond 180° (see [`phase_margin_at`]).
     pub phase_margin_deg: Option<f64>,
     /// Frequency of that gain crossover (Hz).
     pub phase_margin_hz: Option<f64>,
@@ -123,6 +125,22 @@ impl Margins {
 /// parameter `t` in [0, 1].
 fn interp_log_f(f: &[f64], i: usize, t: f64) -> f64 {
     (f[i].ln() + t * (f[i + 1].ln() - f[i].ln())).exp()
+}
+
+/// Phase margin (degrees) of a gain crossover at the unwrapped loop phase `phase_deg`
+/// (unwrapped from low frequency, starting in (−270°, 90°], see [`unwrapped_phase_deg`]):
+/// its magnitude is the angle from `L` to −1, `180° − |φ|` with `φ` wrapped to
+/// (−180°, 180°], so always at most 180°; its sign is negative where the lag exceeds 180°
+/// (`phase_deg < −180°`). So −160° gives 20°, −190° gives −10°, and a crossover in phase
+/// lead (+2.4°, `L` near +1, the farthest point from −1) gives 177.6°.
+pub fn phase_margin_at(phase_deg: f64) -> f64 {
+    let wrapped = phase_deg - 360.0 * (phase_deg / 360.0).round();
+    let distance = 180.0 - wrapped.abs();
+    if phase_deg < -180.0 {
+        -distance
+    } else {
+        distance
+    }
 }
 
 /// Margins of the loci of `L` on grid `frequency_hz`. Crossings are located by linear
@@ -157,7 +175,7 @@ pub fn margins(frequency_hz: &[f64], loci: &[Vec<Complex64>]) -> Margins {
             if (la >= 0.0) != (lb >= 0.0) {
                 let t = la / (la - lb);
                 let ph = phase[i] + t * (phase[i + 1] - phase[i]);
-                let pm = 180.0 + ph - 360.0 * ((180.0 + ph) / 360.0).round();
+                let pm = phase_margin_at(ph);
                 if out.phase_margin_deg.is_none_or(|p| pm < p) {
                     out.phase_margin_deg = Some(pm);
                     out.phase_margin_hz = Some(interp_log_f(frequency_hz, i, t));
@@ -361,6 +379,34 @@ mod tests {
         let pm = 90.0 - (k * tau).to_degrees();
         assert!((m.phase_margin_deg.unwrap() - pm).abs() < 1e-3, "{m:?}");
         assert!((m.phase_margin_hz.unwrap() - k / TAU).abs() < 1e-4);
+    }
+
+    #[test]
+    fn phase_margin_is_the_angle_to_minus_one_signed_by_the_lag() {
+        for (phase, pm) in [
+            (-160.0, 20.0),
+            (-190.0, -10.0),
+            (-90.0, 90.0),
+            (2.4, 177.6),
+            (-2.4, 177.6),
+            (-357.6, -177.6),
+            (-400.0, -140.0),
+        ] {
+            assert!(
+                (phase_margin_at(phase) - pm).abs() < 1e-9,
+                "{phase}: {}",
+                phase_margin_at(phase)
+            );
+        }
+        // A locus crossing |L| = 1 in phase lead: L = 2 e^{j 2.4°} … 0.5 e^{j 2.4°}.
+        let f = log_grid(1.0, 100.0, 50);
+        let locus: Vec<Complex64> = f
+            .iter()
+            .map(|hz| Complex64::from_polar(2.0 * (1.0 / hz).powf(0.3), 2.4f64.to_radians()))
+            .collect();
+        let m = margins(&f, &[locus]);
+        assert!((m.phase_margin_deg.unwrap() - 177.6).abs() < 1e-9, "{m:?}");
+        assert!(m.gain_margin.is_none(), "{m:?}");
     }
 
     #[test]

@@ -26,6 +26,35 @@ pub enum ResponseSource {
 }
 
 impl ResponseSource {
+    /// One line for reports: what the response is made of.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Model {
+                transfer_function,
+                delay_s,
+            } => {
+                let order = |c: &[f64]| c.len().saturating_sub(1);
+                let mut out = format!(
+                    "model, numerator order {} / denominator order {}",
+                    order(&transfer_function.numerator),
+                    order(&transfer_function.denominator)
+                );
+                if *delay_s > 0.0 {
+                    out.push_str(&format!(", delay {:.3} ms", delay_s * 1e3));
+                }
+                out
+            }
+            Self::Table(table) => {
+                let (lo, hi) = table.frequency_range();
+                format!(
+                    "measured table, {} points, {lo:.3}-{hi:.1} Hz",
+                    table.points().len()
+                )
+            }
+            Self::Zero => "none (zero)".to_string(),
+        }
+    }
+
     /// A constant gain.
     pub fn gain(k: f64) -> Result<Self> {
         Ok(Self::Model {
@@ -99,6 +128,25 @@ pub enum CommandFilter {
 }
 
 impl CommandFilter {
+    /// One line for reports: the filter's form and size.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Discrete {
+                cascade,
+                sample_period_s,
+            } => format!(
+                "discrete f32 cascade, {} biquad section(s) at {:.0} Hz",
+                cascade.sections,
+                1.0 / sample_period_s
+            ),
+            Self::Continuous(tf) => format!(
+                "continuous, numerator order {} / denominator order {}",
+                tf.num.len().saturating_sub(1),
+                tf.den.len().saturating_sub(1)
+            ),
+        }
+    }
+
     /// The response at a complex `s` (rad/s); a discrete cascade at `z = e^{sT}`.
     pub fn response_s(&self, s: Complex64) -> Complex64 {
         match self {

@@ -13,6 +13,9 @@
 //! control = "force"           # "force" | "position"
 //! tracking = "reference"      # or { numerator = [..], denominator = [..], delay_s = 0.0 }
 //! disturbance = "reference"   #    or { table = "measured.csv" } or "none"
+//! # "reference" is ServoHydraulicActuator under force control ([actuator.reference] to
+//! # change its parameters) and PositionServoActuator under position control
+//! # ([actuator.position_servo]).
 //! [controller]
 //! sample_rate_hz = 2000.0     # loop delay defaults to 1.5 samples
 //! [noise]
@@ -58,7 +61,7 @@ use crate::system::{
     ActuatorControl, Actuators, ExternalInput, ImpedanceLocation, Interface, MechanicalPart,
     MilSystem, VelocityEstimate,
 };
-use crate::ServoHydraulicActuator;
+use crate::{PositionServoActuator, ServoHydraulicActuator};
 use mil_identify::FrfTable;
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;
@@ -212,8 +215,12 @@ pub struct ActuatorSection {
     pub tracking: ResponseEntry,
     /// Disturbance response.
     pub disturbance: ResponseEntry,
-    /// Reference actuator parameters (defaults: [`ServoHydraulicActuator::REFERENCE`]).
+    /// Reference force-controlled actuator parameters, used by `"reference"` responses under
+    /// force control (defaults: [`ServoHydraulicActuator::REFERENCE`]).
     pub reference: Option<ServoHydraulicActuator>,
+    /// Reference position servo parameters, used by `"reference"` responses under position
+    /// control (defaults: [`PositionServoActuator::REFERENCE`]).
+    pub position_servo: Option<PositionServoActuator>,
     /// Loop delay (s); default 1.5 samples of the controller.
     pub loop_delay_s: Option<f64>,
 }
@@ -301,8 +308,10 @@ pub struct Setup {
     pub options: AnalysisOptions,
     /// Control loop rate (Hz).
     pub sample_rate_hz: f64,
-    /// Reference actuator parameters, where the file uses them.
+    /// Reference force-controlled actuator parameters, where the file uses them.
     pub reference_actuator: ServoHydraulicActuator,
+    /// Reference position servo parameters, where the file uses them.
+    pub position_servo: PositionServoActuator,
 }
 
 fn matrix(rows: &[Vec<f64>], what: &str) -> Result<DMatrix<f64>> {
@@ -442,18 +451,13 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64) -> Result<Structure>
 
 fn response(
     entry: &ResponseEntry,
-    reference: Option<Rational>,
+    reference: Rational,
     folder: &Path,
     what: &str,
 ) -> Result<ResponseSource> {
     Ok(match entry {
         ResponseEntry::Named(n) if n == "reference" => ResponseSource::Model {
-            transfer_function: reference.ok_or_else(|| {
-                setup_error(format!(
-                    "actuator {what} = \"reference\" needs force control (the reference \
-                     actuator is force-controlled)"
-                ))
-            })?,
+            transfer_function: reference,
             delay_s: 0.0,
         },
         ResponseEntry::Named(n) if n == "none" => ResponseSource::Zero,
@@ -539,13 +543,18 @@ impl Setup {
             .actuator
             .reference
             .unwrap_or(ServoHydraulicActuator::REFERENCE);
-        let (ref_p, ref_r) = if control == ActuatorControl::Force {
-            (
-                Some(reference_actuator.tracking()?),
-                Some(reference_actuator.disturbance()?),
-            )
-        } else {
-            (None, None)
+        let position_servo = file
+            .actuator
+            .position_servo
+            .unwrap_or(PositionServoActuator::REFERENCE);
+        let (ref_p, ref_r) = match control {
+            ActuatorControl::Force => (
+                reference_actuator.tracking()?,
+                reference_actuator.disturbance()?,
+            ),
+            ActuatorControl::Position => {
+                (position_servo.tracking()?, position_servo.disturbance()?)
+            }
         };
         let loop_delay_s = file.actuator.loop_delay_s.unwrap_or(1.5 / fs);
         let actuators = Actuators {
@@ -633,6 +642,7 @@ impl Setup {
             options,
             sample_rate_hz: fs,
             reference_actuator,
+            position_servo,
         })
     }
 }

@@ -260,6 +260,26 @@ pub enum VelocityEstimate {
 }
 
 impl VelocityEstimate {
+    /// One line for reports: how the numerical model obtains the interface velocity.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Continuous => "continuous derivative (C_i s)".to_string(),
+            Self::Board {
+                sample_period_s,
+                cutoff_hz,
+            } if *cutoff_hz > 0.0 => format!(
+                "board estimator: backward difference at {:.0} Hz, low-pass {cutoff_hz:.0} Hz",
+                1.0 / sample_period_s
+            ),
+            Self::Board {
+                sample_period_s, ..
+            } => format!(
+                "board estimator: plain backward difference at {:.0} Hz",
+                1.0 / sample_period_s
+            ),
+        }
+    }
+
     /// The board's estimator coefficients, exactly as model-core derives them (`f32`),
     /// `None` for [`VelocityEstimate::Continuous`].
     ///
@@ -385,6 +405,42 @@ pub struct MilSystem {
     pub actuators: Actuators,
     /// Optional command filter before the actuators (same filter on every channel).
     pub filter: Option<CommandFilter>,
+}
+
+/// What the MiL loop is made of, for reports (the elements that shape its figures).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LoopDescription {
+    /// "force" or "position".
+    pub control: String,
+    /// The actuator tracking response ([`ResponseSource::describe`]).
+    pub tracking: String,
+    /// The actuator disturbance response.
+    pub disturbance: String,
+    /// Loop transport delay (s).
+    pub loop_delay_s: f64,
+    /// How the numerical model obtains the interface velocity
+    /// ([`VelocityEstimate::describe`]).
+    pub velocity: String,
+    /// The command filter, `None` without one ([`CommandFilter::describe`]).
+    pub filter: Option<String>,
+}
+
+impl MilSystem {
+    /// Describes the MiL loop's elements.
+    pub fn describe_loop(&self) -> LoopDescription {
+        LoopDescription {
+            control: match self.actuators.control {
+                ActuatorControl::Force => "force",
+                ActuatorControl::Position => "position",
+            }
+            .to_string(),
+            tracking: self.actuators.tracking.describe(),
+            disturbance: self.actuators.disturbance.describe(),
+            loop_delay_s: self.actuators.loop_delay_s,
+            velocity: self.interface.velocity.describe(),
+            filter: self.filter.as_ref().map(CommandFilter::describe),
+        }
+    }
 }
 
 /// Which loop to evaluate.
@@ -773,16 +829,11 @@ impl MilSystem {
         }
     }
 
-    /// The coupled emulated system solved directly (no loop form): physical and numerical
-    /// positions per input. Used to check the loop forms.
-    ///
-    /// # Errors
-    /// A singular system matrix.
-    pub fn emulated_direct(&self, frequency_hz: f64) -> Result<(CMatrix, CMatrix)> {
-        let f = frequency_hz;
-        let s = Complex64::new(0.0, TAU * f);
+    /// Dynamic stiffness of the coupled emulated system at `s` (rad/s): numerical DOFs
+    /// first, then physical, joined by the continuous interface impedance `B_i(s)`. Its
+    /// determinant is a polynomial in `s` whose zeros are the emulated system's poles.
+    pub fn coupled_dynamic_stiffness(&self, s: Complex64) -> CMatrix {
         let (nn, np) = (self.numerical.len(), self.physical.len());
-        let (en, ep, gw) = self.input_matrices(s);
         let b = self.interface.impedance(s);
         let qn = complexify(&self.interface.numerical_select);
         let qp = complexify(&self.interface.physical_select);
@@ -796,6 +847,23 @@ impl MilSystem {
             .copy_from(&(-(qp.transpose() * &b * &qn)));
         a.view_mut((nn, nn), (np, np))
             .copy_from(&(self.physical.dynamic_stiffness(s) + qp.transpose() * &b * &qp));
+        a
+    }
+
+    /// The coupled emulated system solved directly (no loop form): physical and numerical
+    /// positions per input. Used to check the loop forms.
+    ///
+    /// # Errors
+    /// A singular system matrix.
+    pub fn emulated_direct(&self, frequency_hz: f64) -> Result<(CMatrix, CMatrix)> {
+        let f = frequency_hz;
+        let s = Complex64::new(0.0, TAU * f);
+        let (nn, np) = (self.numerical.len(), self.physical.len());
+        let (en, ep, gw) = self.input_matrices(s);
+        let b = self.interface.impedance(s);
+        let a = self.coupled_dynamic_stiffness(s);
+        let qp = complexify(&self.interface.physical_select);
+        let n = nn + np;
         let mut rhs = CMatrix::zeros(n, self.inputs.len());
         // The prescribed numerical interface position enters like a moving ground.
         let prescribed = &b * &gw;
@@ -820,13 +888,101 @@ pub enum Stability {
     Unknown,
 }
 
+/// Counts the zeros of `d(s)` right of the line `Re s = σ`, by the argument principle along
+/// `s = σ + jω`, `ω` from 0 up a log grid (`points` per decade from 0.1 mHz) to
+/// `w_max_rad_s`, each step sub-divided until its phase turns less than 20°. Returns the accumulated phase (rad) and the last `ω`.
+fn phase_walk<F>(d: F, w_max_rad_s: f64, points: usize) -> Option<(f64, f64)>
+where
+    F: Fn(f64) -> Option<Complex64>,
+{
+    let mut ws = vec![0.0];
+    ws.extend(
+        crate::metrics::log_grid(1e-4, w_max_rad_s / TAU, points)
+            .iter()
+            .map(|f| TAU * f),
+    );
+    let mut previous = d(0.0)?;
+    let mut total = 0.0;
+    let mut w_prev = 0.0;
+    for &w in &ws[1..] {
+        let mut stack = vec![(w_prev, w)];
+        let mut from_value = previous;
+        while let Some((a, b)) = stack.pop() {
+            let vb = d(b)?;
+            let step = (vb / from_value).arg();
+            if step.abs() > 20f64.to_radians() && b - a > 1e-9 * b.max(1.0) {
+                stack.push((0.5 * (a + b), b));
+                stack.push((a, 0.5 * (a + b)));
+                continue;
+            }
+            total += step;
+            from_value = vb;
+        }
+        previous = from_value;
+        w_prev = w;
+    }
+    Some((total, w_prev))
+}
+
 impl MilSystem {
+    /// Closed-loop stability of the chosen loop: poles with real part above
+    /// `σ = 2π · 1 mHz`.
+    ///
+    /// - The MiL loop: [`MilSystem::loop_stability`].
+    /// - The emulated system: the zeros of `det A(s)`, `A` its
+    ///   [`MilSystem::coupled_dynamic_stiffness`], a polynomial of degree `n`. Along
+    ///   `s = σ + jω`, `ω` from 0 to ∞, its phase turns by `(π/2)(n_left − n_right)`; `n` is
+    ///   read from the slope of `|det A|` at 10 MHz (its zeros are far below). This needs no
+    ///   loop form, so it holds where the emulated loop gain does not fall with frequency
+    ///   (configuration 3: `|L|` grows like the physical inertia over the interface damping).
+    pub fn stability(&self, which: Loop) -> Stability {
+        match which {
+            Loop::Mil => self.loop_stability(Loop::Mil),
+            Loop::Emulated => self.coupled_stability(),
+        }
+    }
+
+    fn coupled_stability(&self) -> Stability {
+        let sigma = TAU * 1e-3;
+        // det A / (1 + |s|²)^N keeps the values in range; the positive scale leaves the
+        // phase alone.
+        let n_dofs = self.numerical.len() + self.physical.len();
+        let det = |w: f64| -> Option<Complex64> {
+            let s = Complex64::new(sigma, w);
+            let scale = (1.0 + s.norm_sqr()).powi(-(n_dofs as i32));
+            let d = self.coupled_dynamic_stiffness(s).determinant() * scale;
+            (d.is_finite() && d != Complex64::new(0.0, 0.0)).then_some(d)
+        };
+        let w_end = TAU * 1e7;
+        let Some((total, w_last)) = phase_walk(det, w_end, 200) else {
+            return Stability::Unknown;
+        };
+        // Degree from the slope of |det A| between w_last and 2 w_last.
+        let (Some(d1), Some(d2)) = (det(w_last), det(2.0 * w_last)) else {
+            return Stability::Unknown;
+        };
+        let slope_scaled = (d2.norm() / d1.norm()).ln() / 2f64.ln();
+        let degree = slope_scaled + 2.0 * n_dofs as f64;
+        if (degree - degree.round()).abs() > 0.05 {
+            return Stability::Unknown;
+        }
+        let right = 0.5 * (degree.round() - 2.0 * total / std::f64::consts::PI);
+        if (right - right.round()).abs() > 0.1 {
+            return Stability::Unknown;
+        }
+        match right.round() {
+            z if z <= 0.0 => Stability::Stable,
+            z => Stability::Unstable(z as u32),
+        }
+    }
+
     /// Counts closed-loop poles with real part above `σ = 2π · 1 mHz` by the argument
     /// principle applied to `det(I + L(s))` along `s = σ + jω`, `ω ≥ 0` (the lower half
     /// follows by conjugate symmetry). Assumes the open loop has no poles right of `σ`
     /// (passive parts, stable actuators and filter); rigid-body modes at `s = 0` lie left of
-    /// the contour, so they need no indentation.
-    pub fn stability(&self, which: Loop) -> Stability {
+    /// the contour, so they need no indentation. [`Stability::Unknown`] where the loop gain
+    /// has not fallen below 0.1 by 20 kHz (an improper loop).
+    pub fn loop_stability(&self, which: Loop) -> Stability {
         let sigma = TAU * 1e-3;
         let det = |w: f64| -> Option<Complex64> {
             let p = self.point_s(Complex64::new(sigma, w), which).ok()?;
@@ -835,37 +991,9 @@ impl MilSystem {
         };
         // ω from 0 to 2π·20 kHz: a dense log grid, refined where the phase steps more than
         // 20°.
-        let mut ws = vec![0.0];
-        ws.extend(
-            crate::metrics::log_grid(1e-4, 2e4, 400)
-                .iter()
-                .map(|f| TAU * f),
-        );
-        let Some(mut previous) = det(0.0) else {
+        let Some((total, w_prev)) = phase_walk(det, TAU * 2e4, 400) else {
             return Stability::Unknown;
         };
-        let mut total = 0.0;
-        let mut w_prev = 0.0;
-        for &w in &ws[1..] {
-            // Sub-divide until every step turns less than 20°.
-            let mut stack = vec![(w_prev, w)];
-            let mut from_value = previous;
-            while let Some((a, b)) = stack.pop() {
-                let Some(vb) = det(b) else {
-                    return Stability::Unknown;
-                };
-                let step = (vb / from_value).arg();
-                if step.abs() > 20f64.to_radians() && b - a > 1e-9 * b.max(1.0) {
-                    stack.push((0.5 * (a + b), b));
-                    stack.push((a, 0.5 * (a + b)));
-                    continue;
-                }
-                total += step;
-                from_value = vb;
-            }
-            previous = from_value;
-            w_prev = w;
-        }
         // The loop must have died out at the end of the contour.
         let Ok(end) = self.point_s(Complex64::new(sigma, w_prev), which) else {
             return Stability::Unknown;

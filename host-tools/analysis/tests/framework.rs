@@ -229,3 +229,132 @@ fn stability_count_agrees_with_the_delay_integrator_margin() {
         assert_eq!(sys.stability(Loop::Emulated), Stability::Stable);
     }
 }
+
+/// The emulated system's stability comes from the zeros of its coupled dynamic stiffness.
+/// It agrees with the argument principle on the emulated loop wherever that loop is proper
+/// (configurations 1 and 4, the tyre and the aero examples), decides configurations 2 and 3
+/// too (whose emulated loop gains grow with frequency, so the loop count is "unknown"), and
+/// counts the right-half-plane poles of parts made unstable on purpose: negative damping
+/// (one complex pair) and a negative stiffness that outweighs the rest (one real pole).
+#[test]
+fn emulated_stability_from_the_coupled_dynamic_stiffness() {
+    use mil_analysis::system::Stability;
+    for (location, control, number) in [
+        (ImpedanceLocation::Physical, ActuatorControl::Position, 1),
+        (ImpedanceLocation::Physical, ActuatorControl::Force, 2),
+        (ImpedanceLocation::Numerical, ActuatorControl::Position, 3),
+        (ImpedanceLocation::Numerical, ActuatorControl::Force, 4),
+    ] {
+        let sys = two_dof(location, control);
+        assert_eq!(sys.stability(Loop::Emulated), Stability::Stable, "{number}");
+        let by_loop = sys.loop_stability(Loop::Emulated);
+        if number == 2 || number == 3 {
+            // Improper emulated loops: the numerical mass's inertia (2) or the physical
+            // one's (3) over the interface damping, |L| ∝ ω.
+            assert_eq!(by_loop, Stability::Unknown, "{number}");
+        } else {
+            assert_eq!(by_loop, Stability::Stable, "{number}");
+        }
+    }
+    let tyre = TyreExample::default()
+        .structure(DT)
+        .unwrap()
+        .with_actuators(ideal(ActuatorControl::Force));
+    let aero = AeroExample::default()
+        .structure()
+        .unwrap()
+        .with_actuators(ideal(ActuatorControl::Force));
+    for (name, sys) in [("tyre", tyre), ("aero", aero)] {
+        assert_eq!(sys.stability(Loop::Emulated), Stability::Stable, "{name}");
+        assert_eq!(
+            sys.loop_stability(Loop::Emulated),
+            Stability::Stable,
+            "{name}"
+        );
+    }
+
+    let unstable = |edit: &dyn Fn(&mut MilSystem)| {
+        let mut sys = two_dof(ImpedanceLocation::Numerical, ActuatorControl::Position);
+        edit(&mut sys);
+        sys.stability(Loop::Emulated)
+    };
+    // Slight negative damping on the physical mass: its mode (one complex pair) grows.
+    assert_eq!(
+        unstable(&|s| s.physical.damping[(0, 0)] = -20.0),
+        Stability::Unstable(2)
+    );
+    // A negative stiffness larger than the interface and numerical springs in series: one
+    // real pole.
+    assert_eq!(
+        unstable(&|s| s.physical.stiffness[(0, 0)] = -3.0e4),
+        Stability::Unstable(1)
+    );
+    // Independent check: the quartic det A(s) expanded by hand, its roots from the
+    // companion matrix, over a spread of (possibly negative) dampings and stiffnesses.
+    let mul = |a: &[f64], b: &[f64]| {
+        let mut out = vec![0.0; a.len() + b.len() - 1];
+        for (i, x) in a.iter().enumerate() {
+            for (j, y) in b.iter().enumerate() {
+                out[i + j] += x * y;
+            }
+        }
+        out
+    };
+    let mut counts = std::collections::BTreeSet::new();
+    for (c_n, k_n, c_p, k_p) in [
+        (20.0, 4.0e4, -200.0, 2.0e4),
+        (-400.0, 4.0e4, -200.0, -3.0e4),
+        (-400.0, -6.0e4, 10.0, -3.0e4),
+        (30.0, -2.0e3, 10.0, 2.0e4),
+        (5.0, 4.0e4, -18.0, 2.0e4),
+        (20.0, 4.0e4, 10.0, -3.0e4),
+        (20.0, 4.0e4, -6.0, 2.0e4),
+    ] {
+        let e = TwoDofExample::default();
+        let (m_n, m_p, c_i, k_i) = (
+            e.numerical_mass_kg,
+            e.physical_mass_kg,
+            e.interface_damping,
+            e.interface_stiffness,
+        );
+        // Ascending powers: det = (a_n + b)(a_p + b) − b² = a_n a_p + b (a_n + a_p).
+        let a_n = [k_n, c_n, m_n];
+        let a_p = [k_p, c_p, m_p];
+        let b = [k_i, c_i];
+        let sum: Vec<f64> = a_n.iter().zip(&a_p).map(|(x, y)| x + y).collect();
+        let det: Vec<f64> = mul(&a_n, &a_p)
+            .iter()
+            .zip(mul(&b, &sum).iter().chain(std::iter::repeat(&0.0)))
+            .map(|(x, y)| x + y)
+            .collect();
+        let lead = det[4];
+        let mut companion = DMatrix::<f64>::zeros(4, 4);
+        for k in 0..4 {
+            companion[(0, k)] = -det[3 - k] / lead;
+        }
+        for k in 1..4 {
+            companion[(k, k - 1)] = 1.0;
+        }
+        let right = companion
+            .complex_eigenvalues()
+            .iter()
+            .filter(|r| r.re > TAU * 1e-3)
+            .count() as u32;
+        let got = unstable(&|s| {
+            s.numerical.damping[(0, 0)] = c_n;
+            s.numerical.stiffness[(0, 0)] = k_n;
+            s.physical.damping[(0, 0)] = c_p;
+            s.physical.stiffness[(0, 0)] = k_p;
+        });
+        let expected = if right == 0 {
+            Stability::Stable
+        } else {
+            Stability::Unstable(right)
+        };
+        assert_eq!(got, expected, "c_n {c_n} k_n {k_n} c_p {c_p} k_p {k_p}");
+        counts.insert(right);
+    }
+    // The cases span every possible count of a quartic (a strongly negative-damped physical
+    // mass drags the numerical mode across through the interface too).
+    assert_eq!(counts.into_iter().collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
+}

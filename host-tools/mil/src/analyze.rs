@@ -18,6 +18,8 @@ pub struct AnalyzeSummary<'a> {
     pub name: &'a str,
     /// Configuration number (1–4).
     pub configuration: u8,
+    /// The MiL loop's elements: actuator, loop delay, velocity estimate, command filter.
+    pub mil_loop: &'a mil_analysis::LoopDescription,
     /// MiL gain margin (null: no phase crossover).
     pub gain_margin: Option<f64>,
     /// MiL phase-crossover frequency (Hz).
@@ -57,6 +59,7 @@ impl AnalyzeOutput {
         AnalyzeSummary {
             name: &self.setup.name,
             configuration: r.configuration,
+            mil_loop: &r.mil_loop,
             gain_margin: r.mil.gain_margin,
             gain_margin_hz: r.mil.gain_margin_hz,
             phase_margin_deg: r.mil.phase_margin_deg,
@@ -79,6 +82,18 @@ impl AnalyzeOutput {
             s,
             "set-up {:?}: configuration {}, {} channel(s)",
             self.setup.name, r.configuration, r.channels
+        );
+        let l = &r.mil_loop;
+        let _ = writeln!(s, "MiL loop elements:");
+        let _ = writeln!(s, "  actuator control      {}", l.control);
+        let _ = writeln!(s, "  tracking response     {}", l.tracking);
+        let _ = writeln!(s, "  disturbance response  {}", l.disturbance);
+        let _ = writeln!(s, "  loop delay            {:.3} ms", l.loop_delay_s * 1e3);
+        let _ = writeln!(s, "  interface velocity    {}", l.velocity);
+        let _ = writeln!(
+            s,
+            "  command filter        {}",
+            l.filter.as_deref().unwrap_or("none")
         );
         let _ = writeln!(s, "{:<28} {:>14} {:>14}", "", "MiL", "emulated");
         let rows = [

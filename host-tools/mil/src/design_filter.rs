@@ -197,6 +197,28 @@ impl DesignOutput {
                     "NOT reachable on this front (see pareto.svg)"
                 }
             );
+            if let Some(front) = s.front.as_ref().filter(|f| !f.is_empty()) {
+                let _ = writeln!(
+                    t,
+                    "front:  weight  lag red [%]  mag [dB]  noise ratio    GM  error [%]  above band  target"
+                );
+                for p in front {
+                    let f = &p.figures;
+                    let _ = writeln!(
+                        t,
+                        "        {:>6.2}  {:>11.1}  {:>8.2}  {:>11.2}  {:>4}  {:>9.1}  {:>10.2}  {}",
+                        p.weight,
+                        f.phase_lag_reduction_pct,
+                        f.magnitude_error_db,
+                        f.noise_sensitivity_ratio,
+                        f.gain_margin_with_filter
+                            .map_or("none".to_string(), |g| format!("{g:.2}")),
+                        f.response_error_with_pct,
+                        f.out_of_band_amplification,
+                        if p.meets_target { "met" } else { "-" }
+                    );
+                }
+            }
             let _ = writeln!(
                 t,
                 "chosen: {}",

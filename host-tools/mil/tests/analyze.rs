@@ -20,6 +20,12 @@ fn tyre_example_reproduces_the_paper() {
     let out = tempfile::tempdir().unwrap();
     let r = run_analyze(&setup("tyre.toml"), out.path()).unwrap().report;
     assert_eq!(r.configuration, 4);
+    assert_eq!(r.mil_loop.filter, None);
+    assert!(
+        r.mil_loop.velocity.contains("low-pass 500 Hz"),
+        "{}",
+        r.mil_loop.velocity
+    );
     assert_eq!(r.mil.stability, Stability::Stable);
     assert_eq!(r.emulated.stability, Stability::Stable);
     let gm = r.mil.gain_margin.unwrap();

@@ -1015,3 +1015,31 @@ fn tyre_with_physical_interface_has_no_loop() {
         assert_rel(p.command[(0, 0)], (-s * LOOP_DELAY).exp(), 1e-12, "command");
     }
 }
+
+/// `[actuator.position_servo]` changes the built-in servo's parameters: with a 60 Hz loop
+/// gain the set-up's responses are the hand derivation's with that gain, and an invalid
+/// value is refused with its name.
+#[test]
+fn position_servo_parameters_can_be_overridden_in_the_setup() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(setup_path(PHYSICAL)).unwrap();
+    let section = |gain: f64| {
+        format!(
+            "{text}\n[actuator.position_servo]\npiston_area_m2 = 5.0e-4\noil_volume_m3 = 1.0e-4\n\
+             bulk_modulus_pa = 1.0e9\nmoving_mass_kg = 2.0\nhydraulic_damping_ratio = 0.2\n\
+             valve_time_constant_s = 1.1e-3\nloop_gain_per_s = {gain:e}\n"
+        )
+    };
+    let setup = read_text(dir.path(), "fast.toml", &section(TAU * 60.0));
+    let servo = PositionServo::FILE.with_loop_gain_hz(60.0);
+    let (num, den, _) = coefficients(&setup.system.actuators.tracking);
+    assert_close_coefficients(num, &servo.tracking_numerator(), "P_d numerator");
+    assert_close_coefficients(den, &servo.denominator(), "P_d denominator");
+    let (num, _, _) = coefficients(&setup.system.actuators.disturbance);
+    assert_close_coefficients(num, &servo.disturbance_numerator(), "R_d numerator");
+
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, section(-1.0)).unwrap();
+    let e = Setup::read(&path).unwrap_err().to_string();
+    assert!(e.contains("loop_gain_per_s"), "{e}");
+}

@@ -85,6 +85,17 @@ fn design_filter_writes_a_filter_that_analyze_uses() {
     );
     assert!((a - d).abs() < 0.02 * d, "analyze {a} vs design {d}");
     assert_eq!(analysed["stability"], "stable");
+    // The report says which filter and velocity estimate the figures are for.
+    let elements = &analysed["mil_loop"];
+    let filter = elements["filter"].as_str().unwrap();
+    assert!(
+        filter.contains("2 biquad section(s) at 2000 Hz"),
+        "{filter}"
+    );
+    let velocity = elements["velocity"].as_str().unwrap();
+    assert!(velocity.contains("low-pass 500 Hz"), "{velocity}");
+    assert_eq!(elements["control"], "force");
+    assert!((elements["loop_delay_s"].as_f64().unwrap() - 7.5e-4).abs() < 1e-12);
 }
 
 /// `--method optimal` reports the target and the front and writes the trade-off plot.
