@@ -161,33 +161,8 @@ fn taper(t: f64, duration: f64, fade: f64) -> f64 {
     edge(t) * edge(duration - t)
 }
 
-/// Deterministic 64-bit generator (SplitMix64), so runs are reproducible from a seed.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// A generator from `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    /// Next uniform value in `[0, 1)`.
-    pub fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Next standard normal value (Box-Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
+/// The deterministic generator behind every noise source (reproducible from a seed).
+pub use mil_rig::rng::SplitMix64;
 
 /// Pink noise: white Gaussian noise through Paul Kellet's 1/f filter, a second-order
 /// Butterworth low-pass at `max_hz` (bilinear), a 0.2 Hz high-pass to remove drift, scaled to

@@ -1,0 +1,93 @@
+//! Real-time factor of the simulated rig: the tyre example (one quarter car on the hub
+//! actuator, model-core's tyre controller step, the emulated system alongside) at a 5 kHz
+//! control rate, simulated seconds per wall-clock second. Target: at least 1000 on one core.
+//!
+//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds>]`
+
+use mil_analysis::examples::TyreExample;
+use mil_analysis::ServoHydraulicActuator;
+use mil_rig::actuator::{ActuatorEffects, ForceActuator};
+use mil_rig::effects::{Effects, Element};
+use mil_rig::harness::{run, Instrumentation};
+use mil_rig::rigs::quarter_car_part;
+use mil_rig::specimen::Specimen;
+use model_core::{
+    CascadeCoefficients, Controller, ControllerParams, DemandLimits, ModelInput, TyreModel,
+    TyreModelParams, TyreParams,
+};
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let fs: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(5000.0);
+    let seconds: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(20.0);
+    let car = TyreExample::default();
+    let tyre = Element::linear(car.tyre_stiffness, car.tyre_damping)
+        .with_preload(f64::from(TyreParams::PAPER.static_load))
+        .with_effects(Effects {
+            lift_off: true,
+            ..Effects::default()
+        });
+    let actuator = ForceActuator::new(
+        ServoHydraulicActuator::REFERENCE,
+        ActuatorEffects::default(),
+    )
+    .expect("reference actuator");
+    let internal_step_s = mil_rig::DEFAULT_INTERNAL_STEP_S;
+    let mut parts = vec![quarter_car_part(
+        &car,
+        Specimen::quarter_car_suspension(&car),
+        actuator,
+        tyre,
+        0,
+        0,
+        internal_step_s,
+    )
+    .expect("rig")];
+    let n = (fs * seconds) as usize;
+    let road: Vec<Vec<f64>> = (0..n)
+        .map(|k| {
+            let t = k as f64 / fs;
+            vec![1e-3 * (std::f64::consts::TAU * (1.0 + 0.5 * t) * t).sin()]
+        })
+        .collect();
+    let params = ControllerParams {
+        model: TyreModelParams {
+            tyre: [TyreParams::PAPER],
+        },
+        filter: [CascadeCoefficients::IDENTITY],
+        limits: [DemandLimits {
+            min: -20_000.0,
+            max: 20_000.0,
+            rate: 1.0e9,
+        }],
+        safe_demand: [TyreParams::PAPER.static_load],
+        safe_ramp_rate: [1.0e5],
+    };
+    let mut controller: Controller<TyreModel<1>, 1> =
+        Controller::with_params(&params, (1.0 / fs) as f32).expect("controller");
+    let started = std::time::Instant::now();
+    let (h, _) = run(
+        &mut controller,
+        &mut parts,
+        &Instrumentation::default(),
+        fs,
+        &road,
+        &[f64::from(TyreParams::PAPER.static_load)],
+        |pos, f, w, _| ModelInput {
+            position: [pos[0] as f32],
+            force: [f[0] as f32],
+            road: [w[0] as f32],
+            speed: 0.0,
+        },
+        |_| {},
+    )
+    .expect("run");
+    let wall = started.elapsed().as_secs_f64();
+    assert_eq!(h.time.len(), n);
+    println!(
+        "tyre example, {fs:.0} Hz control, internal step {:.0} us, {seconds:.0} s simulated in {wall:.3} s: real-time factor {:.0}x ({:.0} ns per control step)",
+        internal_step_s * 1e6,
+        seconds / wall,
+        wall / n as f64 * 1e9
+    );
+}

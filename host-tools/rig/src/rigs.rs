@@ -1,0 +1,71 @@
+//! The paper's rigs, ready to run: the quarter car on a hub-coupled rig with the numerical
+//! tyre (tyre example), with its emulated counterpart.
+
+use crate::actuator::ForceActuator;
+use crate::effects::Element;
+use crate::harness::RigPart;
+use crate::plant::{IdealInterface, Plant};
+use crate::specimen::{Specimen, SpecimenError};
+use mil_analysis::examples::TyreExample;
+
+/// The ideal (emulated) tyre: the numerical tyre as a physical element between the road
+/// under each channel and its hub, `F = F_0 + k_t (w − y) + c_t (ẇ − ẏ)` with the element's
+/// effects (lift-off), evaluated continuously.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IdealTyre {
+    /// The tyre element per channel (preload: the static wheel load, N).
+    pub tyres: Vec<Element>,
+}
+
+impl IdealInterface for IdealTyre {
+    fn forces(
+        &self,
+        y: &[f64],
+        y_dot: &[f64],
+        road: &[f64],
+        road_rate: &[f64],
+        forces: &mut [f64],
+    ) {
+        for (j, (tyre, f)) in self.tyres.iter().zip(forces.iter_mut()).enumerate() {
+            let x = road.get(j).copied().unwrap_or(0.0) - y.get(j).copied().unwrap_or(0.0);
+            let v = road_rate.get(j).copied().unwrap_or(0.0) - y_dot.get(j).copied().unwrap_or(0.0);
+            *f = tyre.force(x, v, 0.0);
+        }
+    }
+}
+
+/// One wheel of the tyre example: the quarter car (`car`, with `suspension` as its
+/// suspension element) on a hub actuator, and the emulated quarter car standing on the ideal
+/// `tyre` (whose preload is the static wheel load). The run's road input `road_input` drives
+/// the emulated tyre (the MiL rig's road goes to the numerical model only); the plant serves
+/// controller channel `channel`.
+///
+/// # Errors
+/// An invalid specimen or step.
+pub fn quarter_car_part(
+    car: &TyreExample,
+    suspension: Element,
+    actuator: ForceActuator,
+    tyre: Element,
+    channel: usize,
+    road_input: usize,
+    internal_step_s: f64,
+) -> Result<RigPart, SpecimenError> {
+    let specimen = Specimen::quarter_car(car, suspension);
+    let mut emulated_specimen = specimen.clone();
+    emulated_specimen.inputs = vec!["road".into()];
+    for e in &mut emulated_specimen.elements {
+        e.input_coefficients = vec![0.0];
+    }
+    Ok(RigPart {
+        mil: Plant::with_actuators(specimen, vec![actuator], internal_step_s)?,
+        emulated: Plant::with_ideal_interface(
+            emulated_specimen,
+            Box::new(IdealTyre { tyres: vec![tyre] }),
+            internal_step_s,
+        )?,
+        first_channel: channel,
+        mil_inputs: vec![],
+        emulated_inputs: vec![road_input],
+    })
+}

@@ -1,0 +1,220 @@
+//! Specimens: mass-spring-damper structures made of rigid DOFs and force elements, with the
+//! actuators' attachment points and the road inputs.
+//!
+//! A specimen has `n` generalised DOFs `q` (m or rad, deviations from the static
+//! equilibrium), a constant mass matrix `M`, force elements ([`crate::effects::Element`])
+//! and constant generalised static forces `g` (gravity). Element `e` is placed by two
+//! coefficient vectors: its compression is `x_e = a_e · q + b_e · w` (m) with `w` the road
+//! inputs (m), its compression rate `a_e · q̇ + b_e · ẇ`, and its force `F_e` (pushing its
+//! ends apart) acts on the DOFs as the generalised force `−a_e F_e` (virtual work). Interface
+//! channel `j` (an actuator) is attached at the point `y_j = t_j · q` (m, the actuator's
+//! positive direction) and applies `t_j F_j`. Hence
+//!
+//! ```text
+//! M q̈ = g − Σ_e a_e F_e(x_e, ẋ_e) + Σ_j t_j F_j
+//! ```
+//!
+//! Static equilibrium: at `q = 0`, `w = 0` the element preloads, the static forces and the
+//! static actuator forces (the numerical model's static demand) balance; the built-in
+//! specimens are set up so.
+//!
+//! Built in: the paper's quarter car on a hub-coupled rig ([`Specimen::quarter_car`]) and
+//! its half car on a four-poster with down-force actuators ([`Specimen::half_car`]); any
+//! other structure can be described directly (a general mass-spring-damper specimen).
+
+use crate::effects::Element;
+use mil_analysis::examples::{AeroExample, TyreExample};
+use serde::{Deserialize, Serialize};
+
+/// Standard gravity (m/s²).
+pub const GRAVITY_M_PER_S2: f64 = 9.81;
+
+/// A force element and where it sits.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlacedElement {
+    /// Name, for reports (e.g. "suspension").
+    pub name: String,
+    /// The element's force law and switchable effects.
+    pub element: Element,
+    /// `a_e`: compression per unit of each DOF (m/m or m/rad).
+    pub dof_coefficients: Vec<f64>,
+    /// `b_e`: compression per unit of each road input (m/m).
+    pub input_coefficients: Vec<f64>,
+}
+
+/// A specimen (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Specimen {
+    /// DOF names.
+    pub dofs: Vec<String>,
+    /// Mass matrix, rows (kg, kg·m²).
+    pub mass: Vec<Vec<f64>>,
+    /// Generalised static forces `g` per DOF (N, N·m), e.g. gravity.
+    pub static_force: Vec<f64>,
+    /// Force elements.
+    pub elements: Vec<PlacedElement>,
+    /// Road input names (m).
+    pub inputs: Vec<String>,
+    /// Attachment `t_j` of each interface channel (actuator): `y_j = t_j · q`.
+    pub attachments: Vec<Vec<f64>>,
+}
+
+/// Errors of a specimen description.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("specimen: {0}")]
+pub struct SpecimenError(pub String);
+
+impl Specimen {
+    /// The quarter car of the tyre example on a hub-coupled rig: DOFs `x_s` (body) and
+    /// `x_u` (hub), the suspension between them (preloaded by the body's weight), gravity on
+    /// both masses, one actuator on the hub carrying the car's weight `(m_s + m_u) g` (the
+    /// tyre model's static load). The tyre is the numerical model's, so the road drives only
+    /// the model: the specimen has no road input.
+    pub fn quarter_car(car: &TyreExample, suspension: Element) -> Self {
+        let g = GRAVITY_M_PER_S2;
+        Self {
+            dofs: vec!["x_s".into(), "x_u".into()],
+            mass: vec![
+                vec![car.sprung_mass_kg, 0.0],
+                vec![0.0, car.unsprung_mass_kg],
+            ],
+            static_force: vec![-car.sprung_mass_kg * g, -car.unsprung_mass_kg * g],
+            elements: vec![PlacedElement {
+                name: "suspension".into(),
+                element: Element {
+                    preload_n: car.sprung_mass_kg * g,
+                    ..suspension
+                },
+                // Compression: the hub rising towards the body.
+                dof_coefficients: vec![-1.0, 1.0],
+                input_coefficients: vec![],
+            }],
+            inputs: vec![],
+            attachments: vec![vec![0.0, 1.0]],
+        }
+    }
+
+    /// The paper's suspension of the quarter car: linear `k_c`, `c_c` (effects off).
+    pub fn quarter_car_suspension(car: &TyreExample) -> Element {
+        Element::linear(car.suspension_stiffness, car.suspension_damping)
+    }
+
+    /// The aero example's half car on a four-poster: DOFs `z_b` (heave, m) and `theta_b`
+    /// (pitch, rad, nose up positive), front and rear suspensions (wheel and tyre lumped, as
+    /// in the paper) from the posts `road_front`, `road_rear` to the axle points
+    /// `x_f = z − l_f θ`, `x_r = z + l_r θ`, preloaded by the static axle loads, gravity on
+    /// the body, and down-force actuators at the axle points (attachments the rows of `L`).
+    pub fn half_car(car: &AeroExample, front: Element, rear: Element) -> Self {
+        let g = GRAVITY_M_PER_S2;
+        let (lf, lr) = (car.front_axle_m, car.rear_axle_m);
+        let weight = car.body_mass_kg * g;
+        // Static axle loads of the body (centroid between the axles).
+        let front_load = weight * lr / (lf + lr);
+        let rear_load = weight * lf / (lf + lr);
+        Self {
+            dofs: vec!["z_b".into(), "theta_b".into()],
+            mass: vec![
+                vec![car.body_mass_kg, 0.0],
+                vec![0.0, car.pitch_inertia_kg_m2],
+            ],
+            static_force: vec![-weight, 0.0],
+            elements: vec![
+                PlacedElement {
+                    name: "front suspension".into(),
+                    element: Element {
+                        preload_n: front_load,
+                        ..front
+                    },
+                    // Compression: the post rising towards the axle point.
+                    dof_coefficients: vec![-1.0, lf],
+                    input_coefficients: vec![1.0, 0.0],
+                },
+                PlacedElement {
+                    name: "rear suspension".into(),
+                    element: Element {
+                        preload_n: rear_load,
+                        ..rear
+                    },
+                    dof_coefficients: vec![-1.0, -lr],
+                    input_coefficients: vec![0.0, 1.0],
+                },
+            ],
+            inputs: vec!["road_front".into(), "road_rear".into()],
+            attachments: vec![vec![1.0, -lf], vec![1.0, lr]],
+        }
+    }
+
+    /// The paper's half-car suspensions: linear front `(k_f, c_f)` and rear `(k_r, c_r)`.
+    pub fn half_car_suspensions(car: &AeroExample) -> (Element, Element) {
+        (
+            Element::linear(car.front_stiffness, car.front_damping),
+            Element::linear(car.rear_stiffness, car.rear_damping),
+        )
+    }
+
+    /// Number of DOFs.
+    pub fn len(&self) -> usize {
+        self.dofs.len()
+    }
+
+    /// Whether the specimen has no DOFs.
+    pub fn is_empty(&self) -> bool {
+        self.dofs.is_empty()
+    }
+
+    /// Checks dimensions, finiteness, a positive definite mass matrix and every element.
+    ///
+    /// # Errors
+    /// The first problem, named.
+    pub fn validate(&self) -> Result<(), SpecimenError> {
+        let n = self.len();
+        let err = |m: String| Err(SpecimenError(m));
+        if n == 0 {
+            return err("no DOFs".into());
+        }
+        if self.mass.len() != n || self.mass.iter().any(|r| r.len() != n) {
+            return err(format!("mass must be {n} x {n}"));
+        }
+        if self.static_force.len() != n {
+            return err(format!("static_force must have {n} entries"));
+        }
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !self.mass.iter().all(|r| finite(r)) || !finite(&self.static_force) {
+            return err("mass and static_force must be finite".into());
+        }
+        if crate::plant::invert(&self.mass).is_none() {
+            return err("mass matrix must be positive definite".into());
+        }
+        for (i, row) in self.mass.iter().enumerate() {
+            if row[i] <= 0.0 || (0..n).any(|j| row[j] != self.mass[j][i]) {
+                return err("mass matrix must be symmetric with positive diagonal".into());
+            }
+        }
+        for e in &self.elements {
+            if e.dof_coefficients.len() != n || e.input_coefficients.len() != self.inputs.len() {
+                return err(format!(
+                    "element {:?}: {n} DOF and {} input coefficients needed",
+                    e.name,
+                    self.inputs.len()
+                ));
+            }
+            if !finite(&e.dof_coefficients) || !finite(&e.input_coefficients) {
+                return err(format!("element {:?}: non-finite coefficient", e.name));
+            }
+            e.element
+                .validate()
+                .map_err(|x| SpecimenError(format!("element {:?}: {x}", e.name)))?;
+        }
+        if self.attachments.is_empty() {
+            return err("no actuator attachments".into());
+        }
+        for t in &self.attachments {
+            if t.len() != n || !finite(t) || t.iter().all(|v| *v == 0.0) {
+                return err(format!("attachments need {n} finite entries, not all zero"));
+            }
+        }
+        Ok(())
+    }
+}
