@@ -2,7 +2,7 @@
 //! actuator, model-core's tyre controller step, the emulated system alongside) at a 5 kHz
 //! control rate, simulated seconds per wall-clock second. Target: at least 1000 on one core.
 //!
-//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds>]`
+//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds> <internal_step_s>]`
 
 use mil_analysis::examples::TyreExample;
 use mil_analysis::ServoHydraulicActuator;
@@ -32,7 +32,10 @@ fn main() {
         ActuatorEffects::default(),
     )
     .expect("reference actuator");
-    let internal_step_s = mil_rig::DEFAULT_INTERNAL_STEP_S;
+    let internal_step_s: f64 = args
+        .next()
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(mil_rig::DEFAULT_INTERNAL_STEP_S);
     let mut parts = vec![quarter_car_part(
         &car,
         Specimen::quarter_car_suspension(&car),
