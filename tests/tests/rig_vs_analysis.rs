@@ -11,14 +11,10 @@ use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, ServoHydraulicActuator};
 use mil_identify::{band_limited_noise, h1_estimate, Record, WelchOptions, Window};
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
-use mil_rig::effects::{Effects, Element};
 use mil_rig::harness::{run, Instrumentation};
-use mil_rig::rigs::quarter_car_part;
+use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
 use mil_rig::specimen::Specimen;
-use model_core::{
-    CascadeCoefficients, Controller, ControllerParams, DemandLimits, ModelInput, TyreModel,
-    TyreModelParams, TyreParams,
-};
+use model_core::{DemandLimits, TyreParams};
 use num_complex::Complex64;
 use std::path::PathBuf;
 
@@ -34,12 +30,14 @@ fn tyre_rig_frf_matches_the_analysis() {
 
     let car = TyreExample::default();
     let tyre_params = TyreParams::PAPER;
-    let tyre = Element::linear(car.tyre_stiffness, car.tyre_damping)
-        .with_preload(f64::from(tyre_params.static_load))
-        .with_effects(Effects {
-            lift_off: true,
-            ..Effects::default()
-        });
+    assert_eq!(
+        (
+            f64::from(tyre_params.stiffness),
+            f64::from(tyre_params.damping)
+        ),
+        (car.tyre_stiffness, car.tyre_damping)
+    );
+    let tyre = ideal_tyre(&tyre_params);
     let actuator =
         ForceActuator::new(setup.reference_actuator, ActuatorEffects::default()).unwrap();
     assert_eq!(setup.reference_actuator, ServoHydraulicActuator::REFERENCE);
@@ -66,21 +64,12 @@ fn tyre_rig_frf_matches_the_analysis() {
         .copied()
         .collect();
     let road_rows: Vec<Vec<f64>> = road.iter().map(|w| vec![*w]).collect();
-    let params = ControllerParams {
-        model: TyreModelParams {
-            tyre: [tyre_params],
-        },
-        filter: [CascadeCoefficients::IDENTITY],
-        limits: [DemandLimits {
-            min: -20_000.0,
-            max: 20_000.0,
-            rate: 1.0e9,
-        }],
-        safe_demand: [tyre_params.static_load],
-        safe_ramp_rate: [1.0e5],
+    let limits = DemandLimits {
+        min: -20_000.0,
+        max: 20_000.0,
+        rate: 1.0e9,
     };
-    let mut controller: Controller<TyreModel<1>, 1> =
-        Controller::with_params(&params, (1.0 / FS) as f32).unwrap();
+    let mut controller = tyre_controller(tyre_params, limits, FS).unwrap();
     let (h, _) = run(
         &mut controller,
         &mut parts,
@@ -88,12 +77,7 @@ fn tyre_rig_frf_matches_the_analysis() {
         FS,
         &road_rows,
         &[f64::from(tyre_params.static_load)],
-        |pos, f, w, _| ModelInput {
-            position: [pos[0] as f32],
-            force: [f[0] as f32],
-            road: [w[0] as f32],
-            speed: 0.0,
-        },
+        tyre_input,
         |_| {},
     )
     .unwrap();

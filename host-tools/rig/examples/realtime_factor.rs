@@ -7,26 +7,17 @@
 use mil_analysis::examples::TyreExample;
 use mil_analysis::ServoHydraulicActuator;
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
-use mil_rig::effects::{Effects, Element};
 use mil_rig::harness::{run, Instrumentation};
-use mil_rig::rigs::quarter_car_part;
+use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
 use mil_rig::specimen::Specimen;
-use model_core::{
-    CascadeCoefficients, Controller, ControllerParams, DemandLimits, ModelInput, TyreModel,
-    TyreModelParams, TyreParams,
-};
+use model_core::{DemandLimits, TyreParams};
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let fs: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(5000.0);
     let seconds: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(20.0);
     let car = TyreExample::default();
-    let tyre = Element::linear(car.tyre_stiffness, car.tyre_damping)
-        .with_preload(f64::from(TyreParams::PAPER.static_load))
-        .with_effects(Effects {
-            lift_off: true,
-            ..Effects::default()
-        });
+    let tyre = ideal_tyre(&TyreParams::PAPER);
     let actuator = ForceActuator::new(
         ServoHydraulicActuator::REFERENCE,
         ActuatorEffects::default(),
@@ -53,21 +44,12 @@ fn main() {
             vec![1e-3 * (std::f64::consts::TAU * (1.0 + 0.5 * t) * t).sin()]
         })
         .collect();
-    let params = ControllerParams {
-        model: TyreModelParams {
-            tyre: [TyreParams::PAPER],
-        },
-        filter: [CascadeCoefficients::IDENTITY],
-        limits: [DemandLimits {
-            min: -20_000.0,
-            max: 20_000.0,
-            rate: 1.0e9,
-        }],
-        safe_demand: [TyreParams::PAPER.static_load],
-        safe_ramp_rate: [1.0e5],
+    let limits = DemandLimits {
+        min: -20_000.0,
+        max: 20_000.0,
+        rate: 1.0e9,
     };
-    let mut controller: Controller<TyreModel<1>, 1> =
-        Controller::with_params(&params, (1.0 / fs) as f32).expect("controller");
+    let mut controller = tyre_controller(TyreParams::PAPER, limits, fs).expect("controller");
     let started = std::time::Instant::now();
     let (h, _) = run(
         &mut controller,
@@ -76,12 +58,7 @@ fn main() {
         fs,
         &road,
         &[f64::from(TyreParams::PAPER.static_load)],
-        |pos, f, w, _| ModelInput {
-            position: [pos[0] as f32],
-            force: [f[0] as f32],
-            road: [w[0] as f32],
-            speed: 0.0,
-        },
+        tyre_input,
         |_| {},
     )
     .expect("run");

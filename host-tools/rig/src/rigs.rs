@@ -2,11 +2,15 @@
 //! tyre (tyre example), with its emulated counterpart.
 
 use crate::actuator::ForceActuator;
-use crate::effects::Element;
+use crate::effects::{Effects, Element};
 use crate::harness::RigPart;
 use crate::plant::{IdealInterface, Plant};
 use crate::specimen::{Specimen, SpecimenError};
 use mil_analysis::examples::TyreExample;
+use model_core::{
+    CascadeCoefficients, Controller, ControllerParams, DemandLimits, ModelInput, ParamError,
+    TyreModel, TyreModelParams, TyreParams,
+};
 
 /// The ideal (emulated) tyre: the numerical tyre as a physical element between the road
 /// under each channel and its hub, `F = F_0 + k_t (w − y) + c_t (ẇ − ẏ)` with the element's
@@ -68,4 +72,51 @@ pub fn quarter_car_part(
         mil_inputs: vec![],
         emulated_inputs: vec![road_input],
     })
+}
+
+/// The emulated tyre element of model-core's tyre parameters: `k_t`, `c_t`, the static
+/// wheel load as preload, lift-off as the board's tyre has it.
+pub fn ideal_tyre(params: &TyreParams) -> Element {
+    Element::linear(f64::from(params.stiffness), f64::from(params.damping))
+        .with_preload(f64::from(params.static_load))
+        .with_effects(Effects {
+            lift_off: params.lift_off != 0,
+            ..Effects::default()
+        })
+}
+
+/// The board's controller for one tyre channel at `sample_rate_hz` (Hz): model-core's tyre
+/// with `params`, no command filter, `limits`, the static wheel load as the safe demand.
+///
+/// # Errors
+/// Parameters model-core refuses.
+pub fn tyre_controller(
+    params: TyreParams,
+    limits: DemandLimits,
+    sample_rate_hz: f64,
+) -> Result<Controller<TyreModel<1>, 1>, ParamError> {
+    let controller_params = ControllerParams {
+        model: TyreModelParams { tyre: [params] },
+        filter: [CascadeCoefficients::IDENTITY],
+        limits: [limits],
+        safe_demand: [params.static_load],
+        safe_ramp_rate: [1.0e5],
+    };
+    Controller::with_params(&controller_params, (1.0 / sample_rate_hz) as f32)
+}
+
+/// The tyre controller's input from the received measurements and the road sample (the
+/// `input` argument of [`crate::harness::run`]).
+pub fn tyre_input(
+    position: &[f64; 1],
+    force: &[f64; 1],
+    road: &[f64],
+    _sample: usize,
+) -> ModelInput<1> {
+    ModelInput {
+        position: [position[0] as f32],
+        force: [force[0] as f32],
+        road: [road.first().copied().unwrap_or(0.0) as f32],
+        speed: 0.0,
+    }
 }

@@ -5,42 +5,25 @@ use mil_analysis::examples::TyreExample;
 use mil_analysis::ServoHydraulicActuator;
 use mil_identify::band_limited_noise;
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
-use mil_rig::effects::{Effects, Element};
 use mil_rig::harness::{run, Histories, Instrumentation};
-use mil_rig::rigs::quarter_car_part;
+use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
 use mil_rig::specimen::Specimen;
-use model_core::{
-    CascadeCoefficients, Controller, ControllerParams, DemandLimits, ModelInput, TyreModel,
-    TyreModelParams, TyreParams,
-};
+use model_core::{Controller, DemandLimits, TyreModel, TyreParams};
 
 const FS: f64 = 2000.0;
 
 fn controller() -> Controller<TyreModel<1>, 1> {
-    let params = ControllerParams {
-        model: TyreModelParams {
-            tyre: [TyreParams::PAPER],
-        },
-        filter: [CascadeCoefficients::IDENTITY],
-        limits: [DemandLimits {
-            min: -20_000.0,
-            max: 20_000.0,
-            rate: 1.0e9,
-        }],
-        safe_demand: [TyreParams::PAPER.static_load],
-        safe_ramp_rate: [1.0e5],
+    let limits = DemandLimits {
+        min: -20_000.0,
+        max: 20_000.0,
+        rate: 1.0e9,
     };
-    Controller::with_params(&params, (1.0 / FS) as f32).unwrap()
+    tyre_controller(TyreParams::PAPER, limits, FS).unwrap()
 }
 
 fn simulate(road: &[f64], internal_step_s: f64) -> Histories {
     let car = TyreExample::default();
-    let tyre = Element::linear(car.tyre_stiffness, car.tyre_damping)
-        .with_preload(f64::from(TyreParams::PAPER.static_load))
-        .with_effects(Effects {
-            lift_off: true,
-            ..Effects::default()
-        });
+    let tyre = ideal_tyre(&TyreParams::PAPER);
     let actuator = ForceActuator::new(
         ServoHydraulicActuator::REFERENCE,
         ActuatorEffects::default(),
@@ -65,12 +48,7 @@ fn simulate(road: &[f64], internal_step_s: f64) -> Histories {
         FS,
         &road,
         &[f64::from(TyreParams::PAPER.static_load)],
-        |pos, force, w, _| ModelInput {
-            position: [pos[0] as f32],
-            force: [force[0] as f32],
-            road: [w[0] as f32],
-            speed: 0.0,
-        },
+        tyre_input,
         |_| {},
     )
     .unwrap();
