@@ -10,10 +10,8 @@ use mil_analysis::examples::TyreExample;
 use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, ServoHydraulicActuator};
 use mil_identify::{band_limited_noise, h1_estimate, Record, WelchOptions, Window};
-use mil_rig::actuator::{ActuatorEffects, ForceActuator};
 use mil_rig::harness::{run, Instrumentation};
-use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
-use mil_rig::specimen::Specimen;
+use mil_rig::rigs::{paper_tyre_part, tyre_controller, tyre_input};
 use model_core::{DemandLimits, TyreParams};
 use num_complex::Complex64;
 use std::path::PathBuf;
@@ -30,6 +28,8 @@ fn tyre_rig_frf_matches_the_analysis() {
 
     let car = TyreExample::default();
     let tyre_params = TyreParams::PAPER;
+    // The rig is the analysed set-up: the same quarter car, tyre and actuator.
+    assert_eq!(setup.reference_actuator, ServoHydraulicActuator::REFERENCE);
     assert_eq!(
         (
             f64::from(tyre_params.stiffness),
@@ -37,20 +37,7 @@ fn tyre_rig_frf_matches_the_analysis() {
         ),
         (car.tyre_stiffness, car.tyre_damping)
     );
-    let tyre = ideal_tyre(&tyre_params);
-    let actuator =
-        ForceActuator::new(setup.reference_actuator, ActuatorEffects::default()).unwrap();
-    assert_eq!(setup.reference_actuator, ServoHydraulicActuator::REFERENCE);
-    let mut parts = vec![quarter_car_part(
-        &car,
-        Specimen::quarter_car_suspension(&car),
-        actuator,
-        tyre,
-        0,
-        0,
-        100e-6,
-    )
-    .unwrap()];
+    let mut parts = vec![paper_tyre_part(100e-6).unwrap()];
     // Periodic excitation: one period of band-limited white noise (periodic in its length
     // by construction) repeated; the first period is discarded and the H1 estimate uses a
     // rectangular window over whole periods, free of leakage.

@@ -4,39 +4,19 @@
 //!
 //! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds> <internal_step_s>]`
 
-use mil_analysis::examples::TyreExample;
-use mil_analysis::ServoHydraulicActuator;
-use mil_rig::actuator::{ActuatorEffects, ForceActuator};
 use mil_rig::harness::{run, Instrumentation};
-use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
-use mil_rig::specimen::Specimen;
+use mil_rig::rigs::{paper_tyre_part, tyre_controller, tyre_input};
 use model_core::{DemandLimits, TyreParams};
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let fs: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(5000.0);
     let seconds: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(20.0);
-    let car = TyreExample::default();
-    let tyre = ideal_tyre(&TyreParams::PAPER);
-    let actuator = ForceActuator::new(
-        ServoHydraulicActuator::REFERENCE,
-        ActuatorEffects::default(),
-    )
-    .expect("reference actuator");
     let internal_step_s: f64 = args
         .next()
         .and_then(|a| a.parse().ok())
         .unwrap_or(mil_rig::DEFAULT_INTERNAL_STEP_S);
-    let mut parts = vec![quarter_car_part(
-        &car,
-        Specimen::quarter_car_suspension(&car),
-        actuator,
-        tyre,
-        0,
-        0,
-        internal_step_s,
-    )
-    .expect("rig")];
+    let mut parts = vec![paper_tyre_part(internal_step_s).expect("rig")];
     let n = (fs * seconds) as usize;
     let road: Vec<Vec<f64>> = (0..n)
         .map(|k| {

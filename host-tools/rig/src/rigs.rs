@@ -120,3 +120,27 @@ pub fn tyre_input(
         speed: 0.0,
     }
 }
+
+/// The paper's tyre example on one channel: [`TyreExample::default`]'s quarter car with
+/// its linear suspension, the reference actuator without effects, and the emulated tyre of
+/// [`TyreParams::PAPER`], driven by road input 0.
+///
+/// # Errors
+/// A non-positive step.
+pub fn paper_tyre_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
+    let car = TyreExample::default();
+    let actuator = ForceActuator::new(
+        mil_analysis::ServoHydraulicActuator::REFERENCE,
+        crate::actuator::ActuatorEffects::default(),
+    )
+    .map_err(|e| SpecimenError(e.to_string()))?;
+    quarter_car_part(
+        &car,
+        Specimen::quarter_car_suspension(&car),
+        actuator,
+        ideal_tyre(&TyreParams::PAPER),
+        0,
+        0,
+        internal_step_s,
+    )
+}

@@ -1,13 +1,9 @@
 //! The tyre example on the simulated hub-coupled rig: integration accuracy of the internal
 //! step, and the closed loop behaving as the analysis predicts.
 
-use mil_analysis::examples::TyreExample;
-use mil_analysis::ServoHydraulicActuator;
 use mil_identify::band_limited_noise;
-use mil_rig::actuator::{ActuatorEffects, ForceActuator};
 use mil_rig::harness::{run, Histories, Instrumentation};
-use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
-use mil_rig::specimen::Specimen;
+use mil_rig::rigs::{paper_tyre_part, tyre_controller, tyre_input};
 use model_core::{Controller, DemandLimits, TyreModel, TyreParams};
 
 const FS: f64 = 2000.0;
@@ -22,23 +18,7 @@ fn controller() -> Controller<TyreModel<1>, 1> {
 }
 
 fn simulate(road: &[f64], internal_step_s: f64) -> Histories {
-    let car = TyreExample::default();
-    let tyre = ideal_tyre(&TyreParams::PAPER);
-    let actuator = ForceActuator::new(
-        ServoHydraulicActuator::REFERENCE,
-        ActuatorEffects::default(),
-    )
-    .unwrap();
-    let mut parts = vec![quarter_car_part(
-        &car,
-        Specimen::quarter_car_suspension(&car),
-        actuator,
-        tyre,
-        0,
-        0,
-        internal_step_s,
-    )
-    .unwrap()];
+    let mut parts = vec![paper_tyre_part(internal_step_s).unwrap()];
     let road: Vec<Vec<f64>> = road.iter().map(|w| vec![*w]).collect();
     let mut c = controller();
     let (h, stats) = run(
