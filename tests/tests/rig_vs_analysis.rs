@@ -50,7 +50,7 @@ fn tyre_rig_frf_matches_the_analysis() {
         .take(PERIOD * PERIODS)
         .copied()
         .collect();
-    let road_rows: Vec<Vec<f64>> = road.iter().map(|w| vec![*w]).collect();
+    let road_columns = vec![road.clone()];
     let limits = DemandLimits {
         min: -20_000.0,
         max: 20_000.0,
@@ -62,7 +62,7 @@ fn tyre_rig_frf_matches_the_analysis() {
         &mut parts,
         &Instrumentation::default(),
         FS,
-        &road_rows,
+        &road_columns,
         &[f64::from(tyre_params.static_load)],
         tyre_input,
         |_| {},
@@ -70,11 +70,7 @@ fn tyre_rig_frf_matches_the_analysis() {
     .unwrap();
     assert!(h.status.iter().all(|s| s.fault == 0));
     // The tyre never lifted off: the run is in the linear range.
-    let min_force = h
-        .mil_force
-        .iter()
-        .map(|f| f[0])
-        .fold(f64::INFINITY, f64::min);
+    let min_force = h.mil_force[0].iter().copied().fold(f64::INFINITY, f64::min);
     assert!(min_force > 0.0, "lift-off at {min_force} N");
 
     let skip = PERIOD;
@@ -84,11 +80,10 @@ fn tyre_rig_frf_matches_the_analysis() {
         window: Window::Rectangular,
     };
     let estimate = |out: &[Vec<f64>]| {
-        let y: Vec<f64> = out[skip..].iter().map(|v| v[0]).collect();
         h1_estimate(
             &[Record {
                 input: &road[skip..],
-                output: &y,
+                output: &out[0][skip..],
             }],
             FS,
             &options,

@@ -18,12 +18,12 @@ fn main() {
         .unwrap_or(mil_rig::DEFAULT_INTERNAL_STEP_S);
     let mut parts = vec![paper_tyre_part(internal_step_s).expect("rig")];
     let n = (fs * seconds) as usize;
-    let road: Vec<Vec<f64>> = (0..n)
+    let road: Vec<Vec<f64>> = vec![(0..n)
         .map(|k| {
             let t = k as f64 / fs;
-            vec![1e-3 * (std::f64::consts::TAU * (1.0 + 0.5 * t) * t).sin()]
+            1e-3 * (std::f64::consts::TAU * (1.0 + 0.5 * t) * t).sin()
         })
-        .collect();
+        .collect()];
     let limits = DemandLimits {
         min: -20_000.0,
         max: 20_000.0,
@@ -43,7 +43,7 @@ fn main() {
     )
     .expect("run");
     let wall = started.elapsed().as_secs_f64();
-    assert_eq!(h.time.len(), n);
+    assert_eq!(h.len(), n);
     println!(
         "tyre example, {fs:.0} Hz control, internal step {:.0} us, {seconds:.0} s simulated in {wall:.3} s: real-time factor {:.0}x ({:.0} ns per control step)",
         internal_step_s * 1e6,

@@ -102,6 +102,7 @@ pub struct ForceActuator {
     friction: f64,
     compressibility_gain: f64,
     feedforward_gain: f64,
+    inverse_supply_pressure: f64,
 }
 
 impl ForceActuator {
@@ -146,6 +147,7 @@ impl ForceActuator {
             compressibility_gain: 4.0 * params.bulk_modulus_pa / params.oil_volume_m3,
             feedforward_gain: params.velocity_feedforward * params.piston_area_m2
                 / params.flow_gain_m3_per_s,
+            inverse_supply_pressure: 1.0 / params.supply_pressure_pa,
         })
     }
 
@@ -197,15 +199,18 @@ impl ForceActuator {
         let demanded = x[state::SPOOL] + self.feedforward_gain * rod_velocity;
         let pl = x[state::LOAD_PRESSURE];
         let drop = (p.supply_pressure_pa - demanded.signum() * pl).max(0.0);
-        let root = (drop / p.supply_pressure_pa).sqrt();
-        let opening = if self.effects.uncompensated_orifice {
+        let root = (drop * self.inverse_supply_pressure).sqrt();
+        let flow_fraction = if self.effects.uncompensated_orifice {
+            demanded.clamp(-self.spool_limit, self.spool_limit) * root
+        } else if root >= 1e-3 && demanded.abs() <= self.spool_limit * root {
+            // ΔP compensation: the spool opens to demanded / root and the flow is the
+            // demanded one (the common case, computed without the division).
             demanded
         } else {
-            // ΔP compensation: open further as the pressure drop falls, up to the limit.
-            demanded / root.max(1e-3)
-        }
-        .clamp(-self.spool_limit, self.spool_limit);
-        let flow = p.flow_gain_m3_per_s * opening * root;
+            // Compensation up to the spool limit: the flow capacity falls with the drop.
+            (demanded / root.max(1e-3)).clamp(-self.spool_limit, self.spool_limit) * root
+        };
+        let flow = p.flow_gain_m3_per_s * flow_fraction;
         let pressure_rate = self.compressibility_gain
             * (flow - p.piston_area_m2 * rod_velocity - p.flow_pressure_coefficient * pl);
         [

@@ -16,9 +16,19 @@
 //! adds one. A dropped frame leaves the receiver with the last value it received (and is
 //! counted); a corrupted frame delivers its wrong value, which the board's input validation
 //! must catch.
+//!
+//! Between samples the road ramps linearly; at a sample the plants are sampled with the
+//! mean of the two ramps' rates (central difference: a forward difference would put the
+//! road rate half a sample early, 0.5° at 30 Hz in the emulated tyre force). A plant whose
+//! specimen takes no road input (the hub-coupled MiL rig) reuses the sampled derivative as
+//! the first stage of the integration step that follows.
+//!
+//! Signals are stored per channel (column-major): `histories.mil_force[c][k]` is channel
+//! `c`'s load-cell force at sample `k`. The run allocates nothing per sample beyond the
+//! growth of those columns.
 
 use crate::link::{CanLink, LinkSpec, Received};
-use crate::plant::{Plant, PlantOutputs};
+use crate::plant::Plant;
 use crate::sensors::{Sensor, SensorSpec};
 use model_core::{Controller, Model, ModelInput, Status};
 
@@ -53,25 +63,38 @@ pub struct RigPart {
     pub emulated_inputs: Vec<usize>,
 }
 
-/// Time histories of a run (SI units), one row per control sample.
+/// Time histories of a run (SI units), per channel (or road input) one column with a value
+/// per control sample.
 #[derive(Clone, Debug, Default)]
 pub struct Histories {
     /// Sample times (s).
     pub time: Vec<f64>,
-    /// Road inputs per sample (m).
+    /// Road inputs: per input, its samples (m).
     pub road: Vec<Vec<f64>>,
-    /// Demand computed by the controller per sample and channel (N).
+    /// Demand computed by the controller: per channel, its samples (N).
     pub demand: Vec<Vec<f64>>,
-    /// MiL rig per sample: attachment position per channel (m).
+    /// MiL rig: attachment position per channel, its samples (m).
     pub mil_position: Vec<Vec<f64>>,
-    /// MiL rig per sample: load-cell force per channel (N).
+    /// MiL rig: load-cell force per channel, its samples (N).
     pub mil_force: Vec<Vec<f64>>,
-    /// Emulated system per sample: attachment position per channel (m).
+    /// Emulated system: attachment position per channel, its samples (m).
     pub emulated_position: Vec<Vec<f64>>,
-    /// Emulated system per sample: interface force per channel (N).
+    /// Emulated system: interface force per channel, its samples (N).
     pub emulated_force: Vec<Vec<f64>>,
     /// Controller status per sample.
     pub status: Vec<Status>,
+}
+
+impl Histories {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    /// Whether the run has no samples.
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
 }
 
 /// Link statistics of a run.
@@ -117,14 +140,53 @@ fn receive(r: Received, last: &mut f64) {
     }
 }
 
-/// Runs `controller` (started by the harness) against `parts` for every road sample.
-/// `input` builds the controller's input from the received measurements (position and force
-/// per channel), the road sample and the sample index; `initial_demand` (N per channel) is
+/// The road inputs' columns picked for one plant, and their rates.
+struct PlantRoad {
+    map: Vec<usize>,
+    now: Vec<f64>,
+    next: Vec<f64>,
+    rate: Vec<f64>,
+}
+
+impl PlantRoad {
+    fn new(map: &[usize]) -> Self {
+        Self {
+            map: map.to_vec(),
+            now: vec![0.0; map.len()],
+            next: vec![0.0; map.len()],
+            rate: vec![0.0; map.len()],
+        }
+    }
+
+    /// Picks samples `k` and `k + 1` (held at the ends) and the rate at sample `k`
+    /// (central difference over `2 dt`).
+    fn pick(&mut self, road: &[Vec<f64>], k: usize, dt: f64) {
+        for (i, &input) in self.map.iter().enumerate() {
+            let column = road.get(input).map_or(&[][..], Vec::as_slice);
+            let now = column.get(k).copied().unwrap_or(0.0);
+            let next = column.get(k + 1).copied().unwrap_or(now);
+            let previous = k
+                .checked_sub(1)
+                .and_then(|j| column.get(j))
+                .copied()
+                .unwrap_or(now);
+            self.now[i] = now;
+            self.next[i] = next;
+            self.rate[i] = (next - previous) / (2.0 * dt);
+        }
+    }
+}
+
+/// Runs `controller` (started by the harness) against `parts` for every sample of `road`
+/// (per road input its samples, m; all inputs equally long). `input` builds the
+/// controller's input from the received measurements (position and force per channel),
+/// the road inputs at the sample and the sample index; `initial_demand` (N per channel) is
 /// the static demand the rig starts at rest with (the model's static output). `progress`
 /// gets the fraction done now and then.
 ///
 /// # Errors
-/// Invalid sensors or links, or parts that do not cover the controller's channels.
+/// Invalid sensors or links, parts that do not cover the controller's channels, or road
+/// inputs of unequal length.
 #[allow(clippy::too_many_arguments)]
 pub fn run<M: Model<CH>, const CH: usize>(
     controller: &mut Controller<M, CH>,
@@ -142,8 +204,17 @@ pub fn run<M: Model<CH>, const CH: usize>(
             "the rig's plants serve {covered} channels, the controller has {CH}"
         )));
     }
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        return Err(HarnessError::Layout(format!(
+            "sample rate must be > 0 Hz (is {sample_rate_hz})"
+        )));
+    }
     let dt = 1.0 / sample_rate_hz;
-    let inputs = road.first().map_or(0, Vec::len);
+    let inputs = road.len();
+    let n = road.first().map_or(0, Vec::len);
+    if road.iter().any(|c| c.len() != n) {
+        return Err(HarnessError::Layout("road inputs of unequal length".into()));
+    }
     for p in parts.iter() {
         let bad = |plant: &Plant, map: &[usize]| {
             map.len() != plant.specimen().inputs.len() || map.iter().any(|&i| i >= inputs)
@@ -179,7 +250,6 @@ pub fn run<M: Model<CH>, const CH: usize>(
         });
     }
     // At rest: plants at equilibrium, sensors and links settled on the static values.
-    let pick = |map: &[usize], w: &[f64]| -> Vec<f64> { map.iter().map(|&i| w[i]).collect() };
     for p in parts.iter_mut() {
         let range = p.first_channel..p.first_channel + p.mil.channels();
         p.mil.rest(&initial_demand[range.clone()]);
@@ -194,49 +264,49 @@ pub fn run<M: Model<CH>, const CH: usize>(
     }
     controller.start();
 
-    let n = road.len();
+    let column = || vec![Vec::with_capacity(n); CH];
     let mut h = Histories {
         time: Vec::with_capacity(n),
         road: road.to_vec(),
-        demand: Vec::with_capacity(n),
-        mil_position: Vec::with_capacity(n),
-        mil_force: Vec::with_capacity(n),
-        emulated_position: Vec::with_capacity(n),
-        emulated_force: Vec::with_capacity(n),
+        demand: column(),
+        mil_position: column(),
+        mil_force: column(),
+        emulated_position: column(),
+        emulated_force: column(),
         status: Vec::with_capacity(n),
     };
-    let mut applied: Vec<f64> = initial_demand.to_vec();
-    for (k, w) in road.iter().enumerate() {
-        let next = road.get(k + 1).unwrap_or(w);
-        let previous = k.checked_sub(1).and_then(|i| road.get(i)).unwrap_or(w);
-        // The road ramps linearly between samples, so its rate jumps at a sample; the
-        // sampled signals take the mean of the two slopes (central difference).
-        let rate: Vec<f64> = previous
-            .iter()
-            .zip(next)
-            .map(|(a, b)| (b - a) / (2.0 * dt))
-            .collect();
+    let mut roads: Vec<(PlantRoad, PlantRoad)> = parts
+        .iter()
+        .map(|p| {
+            (
+                PlantRoad::new(&p.mil_inputs),
+                PlantRoad::new(&p.emulated_inputs),
+            )
+        })
+        .collect();
+    let mut sample_road = vec![0.0; inputs];
+    let mut applied: [f64; CH] = *initial_demand;
+    let mut mil_pos = [0.0; CH];
+    let mut mil_force = [0.0; CH];
+    for k in 0..n {
+        for (w, column) in sample_road.iter_mut().zip(road) {
+            *w = column.get(k).copied().unwrap_or(0.0);
+        }
         // 1. Sample the plants.
-        let mut mil_pos = vec![0.0; CH];
-        let mut mil_force = vec![0.0; CH];
-        let mut emu_pos = vec![0.0; CH];
-        let mut emu_force = vec![0.0; CH];
-        for p in parts.iter_mut() {
+        for (p, (mil_road, emu_road)) in parts.iter_mut().zip(roads.iter_mut()) {
             let range = p.first_channel..p.first_channel + p.mil.channels();
-            let out: PlantOutputs = p.mil.outputs(
-                &applied[range.clone()],
-                &pick(&p.mil_inputs, w),
-                &pick(&p.mil_inputs, &rate),
-            );
-            mil_pos[range.clone()].copy_from_slice(&out.position);
-            mil_force[range.clone()].copy_from_slice(&out.force);
-            let out = p.emulated.outputs(
-                &applied[range.clone()],
-                &pick(&p.emulated_inputs, w),
-                &pick(&p.emulated_inputs, &rate),
-            );
-            emu_pos[range.clone()].copy_from_slice(&out.position);
-            emu_force[range].copy_from_slice(&out.force);
+            mil_road.pick(road, k, dt);
+            emu_road.pick(road, k, dt);
+            p.mil
+                .sample(&applied[range.clone()], &mil_road.now, &mil_road.rate);
+            p.emulated
+                .sample(&applied[range.clone()], &emu_road.now, &emu_road.rate);
+            mil_pos[range.clone()].copy_from_slice(p.mil.position());
+            mil_force[range.clone()].copy_from_slice(p.mil.force());
+            for (c, (y, f)) in range.zip(p.emulated.position().iter().zip(p.emulated.force())) {
+                h.emulated_position[c].push(*y);
+                h.emulated_force[c].push(*f);
+            }
         }
         // 2. Transducers and the link to the board.
         let mut position = [0.0; CH];
@@ -250,10 +320,10 @@ pub fn run<M: Model<CH>, const CH: usize>(
             force[c] = ch.received_force;
         }
         // 3. The board's step.
-        let demand = controller.step(&input(&position, &force, w, k));
-        let status = controller.status();
+        let demand = controller.step(&input(&position, &force, &sample_road, k));
+        h.status.push(controller.status());
         // 4. The demand back to the rig, applied from the next sample.
-        let mut next_applied = applied.clone();
+        let mut next_applied = applied;
         for (c, ch) in channels.iter_mut().enumerate() {
             receive(
                 ch.demand_link.transfer(f64::from(demand[c])),
@@ -262,31 +332,21 @@ pub fn run<M: Model<CH>, const CH: usize>(
             next_applied[c] = ch.received_demand;
         }
         // 5. Advance both plants over [t_k, t_{k+1}] with the demand received before.
-        for p in parts.iter_mut() {
+        for (p, (mil_road, emu_road)) in parts.iter_mut().zip(roads.iter()) {
             let range = p.first_channel..p.first_channel + p.mil.channels();
-            p.mil.advance(
-                dt,
-                &applied[range.clone()],
-                &pick(&p.mil_inputs, w),
-                &pick(&p.mil_inputs, next),
-            );
-            p.emulated.advance(
-                dt,
-                &applied[range],
-                &pick(&p.emulated_inputs, w),
-                &pick(&p.emulated_inputs, next),
-            );
+            p.mil
+                .advance(dt, &applied[range.clone()], &mil_road.now, &mil_road.next);
+            p.emulated
+                .advance(dt, &applied[range], &emu_road.now, &emu_road.next);
         }
         applied = next_applied;
 
         h.time.push(k as f64 * dt);
-        h.demand
-            .push(demand.iter().map(|v| f64::from(*v)).collect());
-        h.mil_position.push(mil_pos);
-        h.mil_force.push(mil_force);
-        h.emulated_position.push(emu_pos);
-        h.emulated_force.push(emu_force);
-        h.status.push(status);
+        for c in 0..CH {
+            h.demand[c].push(f64::from(demand[c]));
+            h.mil_position[c].push(mil_pos[c]);
+            h.mil_force[c].push(mil_force[c]);
+        }
         if k % 8192 == 0 {
             progress(k as f64 / n.max(1) as f64);
         }

@@ -70,6 +70,19 @@ pub struct Plant {
     forces: Vec<f64>,
     road: Vec<f64>,
     road_rate: Vec<f64>,
+    /// Attachments `t_j`, row-major (channels × n).
+    attachments: Vec<f64>,
+    /// Elements' DOF coefficients `a_e`, row-major (elements × n).
+    element_dofs: Vec<f64>,
+    /// Elements' input coefficients `b_e`, row-major (elements × inputs).
+    element_inputs: Vec<f64>,
+    /// The first RK4 stage `k[0]` holds the derivative at the current state for the
+    /// demand and road in `sampled_*` (set by [`Plant::sample`], cleared by any change of
+    /// state).
+    first_stage_ready: bool,
+    sampled_demand: Vec<f64>,
+    sampled_road: Vec<f64>,
+    sampled_road_rate: Vec<f64>,
 }
 
 /// Inverse of a small square matrix given as rows (Gauss–Jordan with partial pivoting),
@@ -115,8 +128,24 @@ pub fn invert(rows: &[Vec<f64>]) -> Option<Vec<f64>> {
     Some(inv)
 }
 
+#[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Row `i` of a row-major matrix with rows of `n` (empty beyond the end). Multiplies where
+/// `chunks_exact` would divide: this is the integration's inner loop.
+#[inline]
+fn row(m: &[f64], i: usize, n: usize) -> &[f64] {
+    m.get(i * n..i * n + n).unwrap_or(&[])
+}
+
+/// `dst = src` element by element (no `memmove` call for a handful of values).
+#[inline]
+fn copy(dst: &mut [f64], src: &[f64]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d = *s;
+    }
 }
 
 impl Plant {
@@ -203,6 +232,21 @@ impl Plant {
             forces: vec![0.0; channels],
             road: vec![0.0; inputs],
             road_rate: vec![0.0; inputs],
+            attachments: specimen.attachments.iter().flatten().copied().collect(),
+            element_dofs: specimen
+                .elements
+                .iter()
+                .flat_map(|e| e.dof_coefficients.iter().copied())
+                .collect(),
+            element_inputs: specimen
+                .elements
+                .iter()
+                .flat_map(|e| e.input_coefficients.iter().copied())
+                .collect(),
+            first_stage_ready: false,
+            sampled_demand: vec![0.0; channels],
+            sampled_road: vec![0.0; inputs],
+            sampled_road_rate: vec![0.0; inputs],
             specimen,
             drive,
         })
@@ -238,6 +282,7 @@ impl Plant {
     pub fn rest(&mut self, demand: &[f64]) {
         self.state.iter_mut().for_each(|x| *x = 0.0);
         self.time_s = 0.0;
+        self.first_stage_ready = false;
         let offset = 2 * self.n + self.element_states;
         if let Drive::Actuators(acts) = &self.drive {
             for (j, (a, f)) in acts.iter().zip(demand).enumerate() {
@@ -248,48 +293,59 @@ impl Plant {
         }
     }
 
-    /// Evaluates the derivative of `state` into `out` with demands `demand` (N) and road
-    /// `road`, `road_rate`; also leaves the accelerations in `self.accel` and the interface
-    /// forces in `self.forces`.
+    /// Evaluates the derivative of `state` (or of the RK4 trial state `tmp`) into
+    /// `k[which]` with demands `demand` (N) and the road in `self.road`, `self.road_rate`;
+    /// also leaves the attachment kinematics in `self.y`, `self.y_dot`, the accelerations in
+    /// `self.accel` and the interface forces in `self.forces`.
     fn derivative(&mut self, which: usize, from_tmp: bool, demand: &[f64]) {
         let n = self.n;
+        let inputs = self.road.len();
         let x: &[f64] = if from_tmp { &self.tmp } else { &self.state };
         let (q, rest) = x.split_at(n);
         let (qd, rest) = rest.split_at(n);
         let (zs, act_states) = rest.split_at(self.element_states);
         let out = &mut self.k[which];
         // Attachment kinematics.
-        for (j, t) in self.specimen.attachments.iter().enumerate() {
-            self.y[j] = dot(t, q);
-            self.y_dot[j] = dot(t, qd);
+        for (j, (y, y_dot)) in self.y.iter_mut().zip(self.y_dot.iter_mut()).enumerate() {
+            let t = row(&self.attachments, j, n);
+            *y = dot(t, q);
+            *y_dot = dot(t, qd);
         }
         // Generalised forces: static, elements.
-        self.generalised
-            .copy_from_slice(&self.specimen.static_force);
+        copy(&mut self.generalised, &self.specimen.static_force);
         let mut zi = 0;
-        for e in &self.specimen.elements {
-            let xe = dot(&e.dof_coefficients, q) + dot(&e.input_coefficients, &self.road);
-            let ve = dot(&e.dof_coefficients, qd) + dot(&e.input_coefficients, &self.road_rate);
-            let states = e.element.states();
-            let z = if states > 0 { zs[zi] } else { 0.0 };
-            let f = e.element.force(xe, ve, z);
-            if states > 0 {
-                out[2 * n + zi] = e.element.state_rate(xe, ve, z);
-                zi += states;
+        for (i, e) in self.specimen.elements.iter().enumerate() {
+            let a = row(&self.element_dofs, i, n);
+            let (mut xe, mut ve) = (dot(a, q), dot(a, qd));
+            if inputs > 0 {
+                let b = row(&self.element_inputs, i, inputs);
+                xe += dot(b, &self.road);
+                ve += dot(b, &self.road_rate);
             }
-            for (g, a) in self.generalised.iter_mut().zip(&e.dof_coefficients) {
-                *g -= a * f;
+            let element = &e.element;
+            let f = if element.states() > 0 {
+                let z = zs.get(zi).copied().unwrap_or(0.0);
+                if let Some(rate) = out.get_mut(2 * n + zi) {
+                    *rate = element.state_rate(xe, ve, z);
+                }
+                zi += element.states();
+                element.force(xe, ve, z)
+            } else {
+                element.force(xe, ve, 0.0)
+            };
+            for (g, ai) in self.generalised.iter_mut().zip(a) {
+                *g -= ai * f;
             }
         }
         // Interface forces: piston forces (actuators) or the ideal law.
         match &self.drive {
             Drive::Actuators(acts) => {
-                for (j, a) in acts.iter().enumerate() {
-                    let s: &[f64; ACTUATOR_STATES] = act_states
-                        [j * ACTUATOR_STATES..(j + 1) * ACTUATOR_STATES]
-                        .try_into()
-                        .unwrap_or(&[0.0; ACTUATOR_STATES]);
-                    self.forces[j] = a.piston_force(s, self.y_dot[j]);
+                for (j, (a, (f, y_dot))) in acts
+                    .iter()
+                    .zip(self.forces.iter_mut().zip(&self.y_dot))
+                    .enumerate()
+                {
+                    *f = a.piston_force(actuator_state(act_states, j), *y_dot);
                 }
             }
             Drive::Ideal(law) => {
@@ -302,30 +358,33 @@ impl Plant {
                 );
             }
         }
-        for (t, f) in self.specimen.attachments.iter().zip(&self.forces) {
+        for (j, f) in self.forces.iter().enumerate() {
+            let t = row(&self.attachments, j, n);
             for (g, ti) in self.generalised.iter_mut().zip(t) {
                 *g += ti * f;
             }
         }
         // Accelerations.
-        for i in 0..n {
-            self.accel[i] = dot(&self.inv_mass[i * n..(i + 1) * n], &self.generalised);
+        for (i, a) in self.accel.iter_mut().enumerate() {
+            *a = dot(row(&self.inv_mass, i, n), &self.generalised);
         }
-        out[..n].copy_from_slice(qd);
-        out[n..2 * n].copy_from_slice(&self.accel);
+        let (velocities, rest) = out.split_at_mut(n);
+        copy(velocities, qd);
+        copy(rest, &self.accel);
         // Actuators: load cell (F_p − m_a ÿ) and their own dynamics.
         if let Drive::Actuators(acts) = &self.drive {
             let offset = 2 * n + self.element_states;
-            for (j, a) in acts.iter().enumerate() {
-                let y_dd = dot(&self.specimen.attachments[j], &self.accel);
-                self.forces[j] -= a.moving_mass_kg() * y_dd;
-                let s: &[f64; ACTUATOR_STATES] = act_states
-                    [j * ACTUATOR_STATES..(j + 1) * ACTUATOR_STATES]
-                    .try_into()
-                    .unwrap_or(&[0.0; ACTUATOR_STATES]);
-                let d = a.derivative(s, demand[j], self.forces[j], self.y_dot[j]);
-                out[offset + j * ACTUATOR_STATES..offset + (j + 1) * ACTUATOR_STATES]
-                    .copy_from_slice(&d);
+            for (j, (a, ((f, y_dot), demand))) in acts
+                .iter()
+                .zip(self.forces.iter_mut().zip(&self.y_dot).zip(demand))
+                .enumerate()
+            {
+                *f -= a.moving_mass_kg() * dot(row(&self.attachments, j, n), &self.accel);
+                let d = a.derivative(actuator_state(act_states, j), *demand, *f, *y_dot);
+                let start = offset + j * ACTUATOR_STATES;
+                if let Some(o) = out.get_mut(start..start + ACTUATOR_STATES) {
+                    copy(o, &d);
+                }
             }
         }
     }
@@ -345,44 +404,80 @@ impl Plant {
     /// Advances by `duration_s` (s) in RK4 steps of at most the internal step, with the
     /// actuator demands `demand` (N per channel; ignored by an ideal interface) held and the
     /// road ramping from `road_from` to `road_to` (m per input).
+    ///
+    /// When [`Plant::sample`] was called last with the same demand, `road_from` and the
+    /// ramp's rate `(road_to − road_from) / duration_s` (m/s), the first RK4 stage is the
+    /// derivative it evaluated and is not evaluated again.
     pub fn advance(&mut self, duration_s: f64, demand: &[f64], road_from: &[f64], road_to: &[f64]) {
         let steps = (duration_s / self.internal_step_s - 1e-9).ceil().max(1.0) as usize;
         let h = duration_s / steps as f64;
-        let len = self.state.len();
         for s in 0..steps {
             let f0 = s as f64 / steps as f64;
             let fm = (s as f64 + 0.5) / steps as f64;
             let f1 = (s as f64 + 1.0) / steps as f64;
             self.set_road(road_from, road_to, f0, duration_s);
-            self.derivative(0, false, demand);
+            let reuse = s == 0
+                && self.first_stage_ready
+                && self.sampled_demand == demand
+                && self.sampled_road == self.road
+                && self.sampled_road_rate == self.road_rate;
+            if !reuse {
+                self.derivative(0, false, demand);
+            }
             self.set_road(road_from, road_to, fm, duration_s);
-            for i in 0..len {
-                self.tmp[i] = self.state[i] + 0.5 * h * self.k[0][i];
-            }
+            let half = 0.5 * h;
+            stage(&mut self.tmp, &self.state, &self.k[0], half);
             self.derivative(1, true, demand);
-            for i in 0..len {
-                self.tmp[i] = self.state[i] + 0.5 * h * self.k[1][i];
-            }
+            stage(&mut self.tmp, &self.state, &self.k[1], half);
             self.derivative(2, true, demand);
             self.set_road(road_from, road_to, f1, duration_s);
-            for i in 0..len {
-                self.tmp[i] = self.state[i] + h * self.k[2][i];
-            }
+            stage(&mut self.tmp, &self.state, &self.k[2], h);
             self.derivative(3, true, demand);
-            for i in 0..len {
-                self.state[i] += h / 6.0
-                    * (self.k[0][i] + 2.0 * self.k[1][i] + 2.0 * self.k[2][i] + self.k[3][i]);
+            let sixth = h / 6.0;
+            let [k0, k1, k2, k3] = &self.k;
+            for ((x, a), ((b, c), d)) in
+                self.state.iter_mut().zip(k0).zip(k1.iter().zip(k2).zip(k3))
+            {
+                *x += sixth * (a + 2.0 * b + 2.0 * c + d);
             }
         }
+        self.first_stage_ready = false;
         self.time_s += duration_s;
     }
 
-    /// The plant's signals now, for demands `demand` (N; they set the load-cell force
-    /// through the accelerations) and road `road` with rate `road_rate`.
-    pub fn outputs(&mut self, demand: &[f64], road: &[f64], road_rate: &[f64]) -> PlantOutputs {
-        self.road.copy_from_slice(road);
-        self.road_rate.copy_from_slice(road_rate);
+    /// Evaluates the plant's signals now, for demands `demand` (N; they set the load-cell
+    /// force through the accelerations) and road `road` with rate `road_rate` (m/s); read
+    /// them with [`Plant::position`], [`Plant::velocity`] and [`Plant::force`]. Allocates
+    /// nothing.
+    pub fn sample(&mut self, demand: &[f64], road: &[f64], road_rate: &[f64]) {
+        copy(&mut self.road, road);
+        copy(&mut self.road_rate, road_rate);
         self.derivative(0, false, demand);
+        copy(&mut self.sampled_demand, demand);
+        copy(&mut self.sampled_road, road);
+        copy(&mut self.sampled_road_rate, road_rate);
+        self.first_stage_ready = true;
+    }
+
+    /// Attachment position per channel (m) at the last [`Plant::sample`].
+    pub fn position(&self) -> &[f64] {
+        &self.y
+    }
+
+    /// Attachment velocity per channel (m/s) at the last [`Plant::sample`].
+    pub fn velocity(&self) -> &[f64] {
+        &self.y_dot
+    }
+
+    /// Interface force on the specimen per channel (N) at the last [`Plant::sample`]: the
+    /// load-cell force, or the ideal interface's force.
+    pub fn force(&self) -> &[f64] {
+        &self.forces
+    }
+
+    /// The plant's signals now (see [`Plant::sample`]), collected.
+    pub fn outputs(&mut self, demand: &[f64], road: &[f64], road_rate: &[f64]) -> PlantOutputs {
+        self.sample(demand, road, road_rate);
         let offset = 2 * self.n + self.element_states;
         let actuators = match &self.drive {
             Drive::Actuators(a) => a.len(),
@@ -401,5 +496,22 @@ impl Plant {
             load_pressure: pick(crate::actuator::state::LOAD_PRESSURE),
             spool: pick(crate::actuator::state::SPOOL),
         }
+    }
+}
+
+/// Actuator `j`'s states in the actuators' part of the state vector.
+#[inline]
+fn actuator_state(states: &[f64], j: usize) -> &[f64; ACTUATOR_STATES] {
+    states
+        .get(j * ACTUATOR_STATES..(j + 1) * ACTUATOR_STATES)
+        .and_then(|s| s.try_into().ok())
+        .unwrap_or(&[0.0; ACTUATOR_STATES])
+}
+
+/// `tmp = x + h k` (an RK4 trial state).
+#[inline]
+fn stage(tmp: &mut [f64], x: &[f64], k: &[f64], h: f64) {
+    for ((t, a), b) in tmp.iter_mut().zip(x).zip(k) {
+        *t = a + h * b;
     }
 }

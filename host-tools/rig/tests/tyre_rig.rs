@@ -19,7 +19,7 @@ fn controller() -> Controller<TyreModel<1>, 1> {
 
 fn simulate(road: &[f64], internal_step_s: f64) -> Histories {
     let mut parts = vec![paper_tyre_part(internal_step_s).unwrap()];
-    let road: Vec<Vec<f64>> = road.iter().map(|w| vec![*w]).collect();
+    let road = vec![road.to_vec()];
     let mut c = controller();
     let (h, stats) = run(
         &mut c,
@@ -49,13 +49,10 @@ fn internal_step_is_accurate() {
     let road = band_limited_noise(0.5, 50.0, 2.0, FS, 1e-3, true, 7);
     let coarse = simulate(&road, 100e-6);
     let fine = simulate(&road, 2e-6);
-    let mean = coarse.mil_force.iter().map(|f| f[0]).sum::<f64>() / road.len() as f64;
-    let variation = rms(coarse.mil_force.iter().map(|f| f[0] - mean));
-    let error = rms(coarse
-        .mil_force
-        .iter()
-        .zip(&fine.mil_force)
-        .map(|(a, b)| a[0] - b[0]));
+    let (coarse, fine) = (&coarse.mil_force[0], &fine.mil_force[0]);
+    let mean = coarse.iter().sum::<f64>() / road.len() as f64;
+    let variation = rms(coarse.iter().map(|f| f - mean));
+    let error = rms(coarse.iter().zip(fine).map(|(a, b)| a - b));
     eprintln!("force RMS variation {variation:.1} N, RK4 100 us vs 2 us: {error:.3e} N");
     assert!(
         variation > 100.0,
@@ -70,12 +67,13 @@ fn internal_step_is_accurate() {
 fn rig_starts_and_stays_at_rest() {
     let h = simulate(&vec![0.0; 2000], 100e-6);
     let load = f64::from(TyreParams::PAPER.static_load);
-    for (f, y) in h.mil_force.iter().zip(&h.mil_position) {
-        assert!((f[0] - load).abs() < 1e-3, "{f:?}");
-        assert!(y[0].abs() < 1e-8, "{y:?}");
+    assert_eq!(h.len(), 2000);
+    for (f, y) in h.mil_force[0].iter().zip(&h.mil_position[0]) {
+        assert!((f - load).abs() < 1e-3, "{f}");
+        assert!(y.abs() < 1e-8, "{y}");
     }
     // (The f32 static load differs from the f64 weight by 7e-5 N.)
-    for f in &h.emulated_force {
-        assert!((f[0] - load).abs() < 1e-3, "{f:?}");
+    for f in &h.emulated_force[0] {
+        assert!((f - load).abs() < 1e-3, "{f}");
     }
 }
