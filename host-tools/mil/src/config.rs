@@ -15,6 +15,10 @@ use std::path::{Path, PathBuf};
 /// The tyre example, built into the tool: `mil run` without a file uses it.
 pub const DEFAULT_TYRE_CONFIG: &str = include_str!("../examples/tyre.toml");
 
+/// The tyre example on the simulated rig, built into the tool: `mil sim` without a file
+/// uses it.
+pub const DEFAULT_SIM_CONFIG: &str = include_str!("../examples/sim/tyre.toml");
+
 /// Which numerical model a run uses.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
@@ -41,6 +45,21 @@ pub struct Config {
     pub limits: LimitsSection,
     /// Road input.
     pub input: RoadInput,
+    /// The board's command filter (optional; none: identity).
+    #[serde(default)]
+    pub controller: ControllerSection,
+    /// The simulated rig (`mil sim`; defaults: the paper's rig without effects).
+    #[serde(default)]
+    pub rig: RigSection,
+    /// The rig's transducers (`mil sim`; default ideal).
+    #[serde(default)]
+    pub sensors: SensorsSection,
+    /// The CAN link between rig and board (`mil sim`; default ideal).
+    #[serde(default)]
+    pub links: LinksSection,
+    /// What `mil sim` compares the estimated response with.
+    #[serde(default)]
+    pub compare: CompareSection,
     /// Folder of the configuration file (for relative paths); not read from TOML.
     #[serde(skip)]
     pub base: PathBuf,
@@ -98,6 +117,103 @@ pub struct AeroSection {
     pub speed_m_per_s: f32,
 }
 
+/// `[controller]`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSection {
+    /// Command-filter file (`mil design-filter`'s JSON), relative to the configuration
+    /// file; its sample rate must be the run's. None: no filter.
+    pub filter: Option<String>,
+}
+
+/// `[rig]`: the simulated rig of `mil sim`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigSection {
+    /// RK4 step of the plants (s), at most the control period.
+    pub internal_step_s: f64,
+    /// Switchable effects of every actuator (all off by default).
+    pub actuator_effects: mil_rig::actuator::ActuatorEffects,
+    /// The quarter car's suspension (tyre rig); default: the paper's linear `k_c`, `c_c`.
+    /// Its preload is set to carry the sprung mass.
+    pub suspension: Option<mil_rig::effects::Element>,
+    /// Effects of the emulated (real) tyre, the vehicle's own; default: lift-off as
+    /// `[tyre]` says. Effects here and not in the board's model are hidden effects.
+    pub tyre_effects: Option<mil_rig::effects::Effects>,
+    /// The half car's front suspension (aero rig); default: the paper's.
+    pub front_suspension: Option<mil_rig::effects::Element>,
+    /// The half car's rear suspension (aero rig); default: the paper's.
+    pub rear_suspension: Option<mil_rig::effects::Element>,
+}
+
+impl Default for RigSection {
+    fn default() -> Self {
+        Self {
+            internal_step_s: mil_rig::DEFAULT_INTERNAL_STEP_S,
+            actuator_effects: Default::default(),
+            suspension: None,
+            tyre_effects: None,
+            front_suspension: None,
+            rear_suspension: None,
+        }
+    }
+}
+
+/// `[sensors]`: the same transducer spec on every channel.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorsSection {
+    /// Displacement transducer (m).
+    pub position: mil_rig::sensors::SensorSpec,
+    /// Load cell (N).
+    pub force: mil_rig::sensors::SensorSpec,
+}
+
+/// `[links]`: the same CAN link spec on every channel.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LinksSection {
+    /// Measured position, rig to board (m).
+    pub position: mil_rig::link::LinkSpec,
+    /// Measured force, rig to board (N).
+    pub force: mil_rig::link::LinkSpec,
+    /// Demand, board to rig (N).
+    pub demand: mil_rig::link::LinkSpec,
+}
+
+/// `[compare]`: the band of the response comparison and the analysis set-up to compare
+/// with.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CompareSection {
+    /// `mil analyze` set-up (TOML) of the same rig, relative to the configuration file:
+    /// its MiL and emulated predictions are compared with the responses estimated from the
+    /// run. None: only MiL against emulated.
+    pub analysis: Option<String>,
+    /// Lower edge of the comparison band (Hz).
+    pub f_min_hz: f64,
+    /// Upper edge of the comparison band (Hz).
+    pub f_max_hz: f64,
+    /// Welch segment length of the response estimate (samples).
+    pub segment: usize,
+    /// Start of the comparison (s): the first `settle_s` of the run, where the controller
+    /// ramps from its safe demand to the model's (bumpless only when the safe demand is
+    /// the static one) and the rig settles, are left out of the figures.
+    pub settle_s: f64,
+}
+
+impl Default for CompareSection {
+    fn default() -> Self {
+        Self {
+            analysis: None,
+            f_min_hz: 1.0,
+            f_max_hz: 30.0,
+            segment: 4096,
+            settle_s: 0.5,
+        }
+    }
+}
+
 /// `[limits]`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -115,12 +231,16 @@ pub struct LimitsSection {
 }
 
 impl LimitsSection {
-    /// The controller's parameter set for `model`, with these limits and safe state on every
-    /// channel and no command filter.
-    pub fn params<P, const CH: usize>(&self, model: P) -> ControllerParams<P, CH> {
+    /// The controller's parameter set for `model`, with these limits and safe state and
+    /// the command filter `filter` on every channel.
+    pub fn params<P, const CH: usize>(
+        &self,
+        model: P,
+        filter: CascadeCoefficients,
+    ) -> ControllerParams<P, CH> {
         ControllerParams {
             model,
-            filter: [CascadeCoefficients::IDENTITY; CH],
+            filter: [filter; CH],
             limits: [DemandLimits {
                 min: self.min,
                 max: self.max,
@@ -170,6 +290,26 @@ impl Config {
         (self.run.duration_s * self.run.sample_rate_hz).round() as usize
     }
 
+    /// The command filter of `[controller]`, read and validated (identity when none); its
+    /// sample rate must be the run's.
+    pub fn command_filter(&self) -> Result<CascadeCoefficients> {
+        let Some(file) = &self.controller.filter else {
+            return Ok(CascadeCoefficients::IDENTITY);
+        };
+        let path = self.base.join(file);
+        let (f, cascade) = mil_analysis::filter_file::FilterFile::read(&path)
+            .with_context(|| format!("controller.filter {}", path.display()))?;
+        let fs = self.run.sample_rate_hz;
+        if (f.sample_rate_hz - fs).abs() > 1e-9 * fs {
+            bail!(
+                "controller.filter {} is designed for {} Hz, the run is at {fs} Hz",
+                path.display(),
+                f.sample_rate_hz
+            );
+        }
+        Ok(cascade)
+    }
+
     /// Validates everything and builds the controller's parameter set.
     pub fn validate(&self) -> Result<Validated> {
         let fs = self.run.sample_rate_hz;
@@ -182,6 +322,7 @@ impl Config {
         }
         self.input.validate(fs)?;
         let dt = (1.0 / fs) as f32;
+        let filter = self.command_filter()?;
         let l = &self.limits;
         let param_error = |e: model_core::ParamError| {
             anyhow::anyhow!("parameter rejected: {e:?} (field {:?})", e.field())
@@ -199,7 +340,7 @@ impl Config {
                     lift_off: u32::from(t.lift_off),
                     velocity_cutoff_hz: t.velocity_cutoff_hz,
                 };
-                PreparedParams::new(&l.params(TyreModelParams { tyre: [tyre; 4] }), dt)
+                PreparedParams::new(&l.params(TyreModelParams { tyre: [tyre; 4] }, filter), dt)
                     .map(|p| Validated::Tyre(Box::new(p)))
                     .map_err(param_error)
             }
@@ -221,7 +362,7 @@ impl Config {
                 {
                     bail!("aero.speed_m_per_s must be in [0, 150] m/s");
                 }
-                PreparedParams::new(&l.params(aero), dt)
+                PreparedParams::new(&l.params(aero, filter), dt)
                     .map(|p| Validated::Aero(Box::new(p), a.speed_m_per_s))
                     .map_err(param_error)
             }

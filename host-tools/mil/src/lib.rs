@@ -2,9 +2,10 @@
 //! parameter set), generated and recorded road inputs, and the run of the real-time
 //! controller step with its CSV, SVG and summary outputs.
 //!
-//! Until the simulated rig exists, a run drives the controller open-loop on a rigid rig:
-//! measured positions are zero (or come from a recorded CSV), so the demand is the force the
-//! numerical model asks of the actuators for the given road and speed.
+//! `mil sim` ([`sim`]) runs the controller in closed loop with the simulated rig
+//! (`mil-rig`) and the emulated system alongside; `mil run` ([`run`]) drives it open-loop
+//! on a rigid rig (measured positions zero), so its demand is the force the numerical model
+//! asks of the actuators for the given road and speed.
 
 pub mod analyze;
 pub mod config;
@@ -13,6 +14,7 @@ pub mod identify;
 pub mod plot;
 pub mod run;
 pub mod signals;
+pub mod sim;
 
 pub use config::{Config, ModelKind};
 pub use run::{run, RunOutput, Summary};

@@ -15,6 +15,8 @@
 //!   as a per-sample delay with fixed-point scaling and optional dropped or corrupted frames.
 //! - [`harness`]: model-core's controller step against the rig and the emulated system.
 //! - [`rigs`]: the paper's rigs assembled.
+//! - [`metrics`]: MiL-vs-emulated error figures (J1–J3 of the real-time hybrid simulation
+//!   benchmark).
 //! - [`rng`]: the deterministic random generator behind every noise source.
 //!
 //! SI units throughout; positions and forces up positive.
@@ -27,6 +29,7 @@ pub mod actuator;
 pub mod effects;
 pub mod harness;
 pub mod link;
+pub mod metrics;
 pub mod plant;
 pub mod rigs;
 pub mod rng;

@@ -1,0 +1,768 @@
+//! `mil sim`: the board's controller step in closed loop with the simulated rig, the emulated
+//! system (the real vehicle) alongside on the same road, and how close the two are.
+//!
+//! The run configuration is `mil run`'s (`[run]`, `[model]`, `[tyre]`/`[aero]`, `[limits]`,
+//! `[input]`, `[controller]`) plus the rig (`[rig]`, `[sensors]`, `[links]`) and the
+//! comparison (`[compare]`). Outputs: the time histories (CSV, `time` first, SI units),
+//! SVG plots, and a summary: per channel the error figures of MiL against emulated for the
+//! interface force and position (J1 delay at the cross-correlation peak, J2 normalised RMS
+//! error, J3 normalised peak error, see [`mil_rig::metrics`]), and the response estimated
+//! from the run (H1, Hann-windowed Welch) against the emulated one and, with
+//! `[compare] analysis`, against `mil analyze`'s prediction.
+
+use crate::config::{Config, ModelKind, Validated};
+use anyhow::{bail, Context, Result};
+use mil_analysis::analyze::Signal;
+use mil_analysis::examples::{AeroExample, TyreExample};
+use mil_analysis::response::CommandFilter;
+use mil_analysis::setup::Setup;
+use mil_analysis::{Loop, ServoHydraulicActuator};
+use mil_identify::{h1_estimate, FrfEstimate, Record, WelchOptions, Window};
+use mil_plots::{BodePlot, BodeSeries, SeriesStyle, XyPlot, XySeries};
+use mil_rig::actuator::ForceActuator;
+use mil_rig::effects::Element;
+use mil_rig::harness::{self, Histories, Instrumentation, LinkStatistics, RigPart};
+use mil_rig::metrics::{compare, lowpass_zero_phase, Comparison};
+use mil_rig::rigs::IdealAero;
+use mil_rig::specimen::Specimen;
+use model_core::{Controller, Mode, ModelInput, Status};
+use num_complex::Complex64;
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Delay window of the J1 search (s).
+pub const MAX_LAG_S: f64 = 0.05;
+
+/// Error figures of one channel.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ChannelErrors {
+    /// Channel index.
+    pub channel: usize,
+    /// What the channel drives (e.g. "wheel 0 hub", "front axle").
+    pub name: String,
+    /// Interface force, MiL load cell against the emulated interface force (N).
+    pub force: Comparison,
+    /// The same within the comparison band: both low-passed at `[compare] f_max_hz`
+    /// (zero phase), so sensor noise the loop amplifies above the band is left out.
+    pub force_in_band: Comparison,
+    /// Attachment position, MiL against emulated (m).
+    pub position: Comparison,
+    /// The same within the comparison band.
+    pub position_in_band: Comparison,
+    /// Smallest and largest demand (N).
+    pub demand_range: [f64; 2],
+}
+
+/// One estimated response against its references over the comparison band: the worst
+/// magnitude (dB) and phase (degrees) deviations.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Deviation {
+    /// Worst |20 log10 |ratio|| (dB).
+    pub db: f64,
+    /// Worst |arg ratio| (degrees).
+    pub deg: f64,
+}
+
+/// The estimated response of the run and its comparisons.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ResponseSummary {
+    /// Which response (e.g. "interface force / road, channel 0").
+    pub name: String,
+    /// Comparison band (Hz).
+    pub band_hz: [f64; 2],
+    /// Frequency bins in the band with coherence of at least 0.9 in both estimates.
+    pub bins: usize,
+    /// MiL estimate against the emulated estimate.
+    pub mil_vs_emulated: Option<Deviation>,
+    /// MiL estimate against the analysis' MiL prediction.
+    pub mil_vs_analysis: Option<Deviation>,
+    /// Emulated estimate against the analysis' emulated prediction.
+    pub emulated_vs_analysis: Option<Deviation>,
+    /// The analysis set-up compared with.
+    pub analysis: Option<String>,
+}
+
+/// Summary of a simulation (printed as a table, or as JSON with `--json`).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct SimSummary {
+    /// Model kind.
+    pub model: String,
+    /// Number of channels.
+    pub channels: usize,
+    /// Control rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Samples run.
+    pub samples: usize,
+    /// RK4 step of the plants (s).
+    pub internal_step_s: f64,
+    /// Sections of the command filter (0: none).
+    pub filter_sections: usize,
+    /// Comparison band (Hz): the in-band figures and the response comparison.
+    pub band_hz: [f64; 2],
+    /// Start of the comparison (s): the figures leave out the run's start.
+    pub settle_s: f64,
+    /// Error figures per channel.
+    pub channel: Vec<ChannelErrors>,
+    /// The response estimated from the run.
+    pub response: Option<ResponseSummary>,
+    /// Time of the first fault (s), if any.
+    pub fault_at_s: Option<f64>,
+    /// Fault flags at the end of the run.
+    pub fault_flags: u8,
+    /// Frames sent, dropped and corrupted on the links.
+    pub links: LinkStatistics,
+    /// Simulated seconds per wall-clock second (informational).
+    pub realtime_factor: f64,
+}
+
+/// Estimated and predicted responses, for the plot.
+#[derive(Clone, Debug, Default)]
+pub struct ResponseCurves {
+    /// Title and axis label.
+    pub name: String,
+    /// Unit of the response.
+    pub unit: String,
+    /// Frequencies (Hz).
+    pub frequency_hz: Vec<f64>,
+    /// MiL estimate.
+    pub mil: Vec<Complex64>,
+    /// Emulated estimate.
+    pub emulated: Vec<Complex64>,
+    /// The analysis' MiL and emulated predictions at the same frequencies.
+    pub predicted: Option<(Vec<Complex64>, Vec<Complex64>)>,
+}
+
+/// Result of a simulation.
+pub struct SimOutput {
+    /// Names of the road inputs.
+    pub road_names: Vec<String>,
+    /// Time histories.
+    pub histories: Histories,
+    /// Summary.
+    pub summary: SimSummary,
+    /// Response curves, when estimated.
+    pub curves: Option<ResponseCurves>,
+}
+
+/// Runs the configuration on the simulated rig; `progress` gets the fraction done.
+///
+/// # Errors
+/// An invalid configuration, rig or analysis set-up.
+pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput> {
+    let validated = config.validate()?;
+    let fs = config.run.sample_rate_hz;
+    let step = config.rig.internal_step_s;
+    if !(step.is_finite() && step > 0.0 && step <= 1.0 / fs) {
+        bail!(
+            "rig.internal_step_s must be in (0, {}] s (the control period), got {step}",
+            1.0 / fs
+        );
+    }
+    let cmp = &config.compare;
+    if !(cmp.f_min_hz > 0.0 && cmp.f_max_hz > cmp.f_min_hz && cmp.f_max_hz < fs / 2.0) {
+        bail!(
+            "compare: need 0 < f_min_hz < f_max_hz < {} Hz (Nyquist)",
+            fs / 2.0
+        );
+    }
+    let n = config.samples();
+    let channels = config.channels();
+    let rows = config.input.generate(n, fs, channels, &config.base)?;
+    let instrumentation = Instrumentation {
+        position_sensor: config.sensors.position.clone(),
+        force_sensor: config.sensors.force.clone(),
+        position_link: config.links.position.clone(),
+        force_link: config.links.force.clone(),
+        demand_link: config.links.demand.clone(),
+    };
+    let actuator = ForceActuator::new(
+        ServoHydraulicActuator::REFERENCE,
+        config.rig.actuator_effects,
+    )?;
+    let started = std::time::Instant::now();
+    let (road_names, histories, links, filter_sections) = match validated {
+        Validated::Tyre(prepared) => {
+            let tyre = config
+                .tyre
+                .as_ref()
+                .context("model.kind = \"tyre\" needs a [tyre] table")?;
+            let car = TyreExample::default();
+            let weight =
+                (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2;
+            if (f64::from(tyre.static_load_n) - weight).abs() > 0.5 {
+                bail!(
+                    "tyre.static_load_n is {} N, but the rig's quarter car weighs {weight:.1} N \
+                     ((m_s + m_u) g): the rig would not start at rest",
+                    tyre.static_load_n
+                );
+            }
+            let suspension = config
+                .rig
+                .suspension
+                .unwrap_or_else(|| Specimen::quarter_car_suspension(&car));
+            let mut tyre_element = Element::linear(
+                f64::from(tyre.stiffness_n_per_m),
+                f64::from(tyre.damping_n_s_per_m),
+            )
+            .with_preload(f64::from(tyre.static_load_n));
+            tyre_element.effects = config
+                .rig
+                .tyre_effects
+                .unwrap_or(mil_rig::effects::Effects {
+                    lift_off: tyre.lift_off,
+                    ..Default::default()
+                });
+            tyre_element
+                .validate()
+                .map_err(|e| anyhow::anyhow!("rig.tyre_effects: {e}"))?;
+            let mut parts = (0..channels)
+                .map(|c| {
+                    mil_rig::rigs::quarter_car_part(
+                        &car,
+                        suspension,
+                        actuator,
+                        tyre_element,
+                        c,
+                        c,
+                        step,
+                    )
+                })
+                .collect::<Result<Vec<RigPart>, _>>()?;
+            let road = columns(&rows, channels);
+            let initial = [f64::from(tyre.static_load_n); 4];
+            let sections = prepared.params().filter[0].active().len();
+            let mut controller = Controller::new(*prepared);
+            let (h, links) = harness::run(
+                &mut controller,
+                &mut parts,
+                &instrumentation,
+                fs,
+                &road,
+                &initial,
+                |position, force, road, _| ModelInput {
+                    position: to_f32(position),
+                    force: to_f32(force),
+                    road: to_f32(road),
+                    speed: 0.0,
+                },
+                progress,
+            )?;
+            let names = (0..channels).map(|c| format!("road_{c}")).collect();
+            (names, h, links, sections)
+        }
+        Validated::Aero(prepared, speed) => {
+            let car = AeroExample::default();
+            let params = prepared.params().model;
+            let front = config
+                .rig
+                .front_suspension
+                .unwrap_or_else(|| Specimen::half_car_suspensions(&car).0);
+            let rear = config
+                .rig
+                .rear_suspension
+                .unwrap_or_else(|| Specimen::half_car_suspensions(&car).1);
+            let speed = f64::from(speed);
+            let mut parts = vec![mil_rig::rigs::half_car_part(
+                &car,
+                (front, rear),
+                actuator,
+                IdealAero::new(params, speed),
+                0,
+                [0, 1],
+                step,
+            )?];
+            let road = columns(&rows, channels);
+            let initial = mil_rig::rigs::aero_static_demand(&params, speed);
+            let sections = prepared.params().filter[0].active().len();
+            let mut controller = Controller::new(*prepared);
+            let (h, links) = harness::run(
+                &mut controller,
+                &mut parts,
+                &instrumentation,
+                fs,
+                &road,
+                &initial,
+                mil_rig::rigs::aero_input(speed),
+                progress,
+            )?;
+            (
+                vec!["road_front".into(), "road_rear".into()],
+                h,
+                links,
+                sections,
+            )
+        }
+    };
+    let elapsed = started.elapsed().as_secs_f64().max(1e-9);
+    let channel_names: Vec<String> = match config.model.kind {
+        ModelKind::Tyre => (0..channels).map(|c| format!("wheel {c} hub")).collect(),
+        ModelKind::Aero => vec!["front axle".into(), "rear axle".into()],
+    };
+    let skip = settle_samples(config, histories.len());
+    let band = |x: &[f64]| lowpass_zero_phase(x, config.compare.f_max_hz, fs);
+    let channel = (0..channels)
+        .map(|c| {
+            let (mf, ef) = (
+                &histories.mil_force[c][skip..],
+                &histories.emulated_force[c][skip..],
+            );
+            let (mp, ep) = (
+                &histories.mil_position[c][skip..],
+                &histories.emulated_position[c][skip..],
+            );
+            ChannelErrors {
+                channel: c,
+                name: channel_names[c].clone(),
+                force: compare(mf, ef, fs, MAX_LAG_S),
+                force_in_band: compare(&band(mf), &band(ef), fs, MAX_LAG_S),
+                position: compare(mp, ep, fs, MAX_LAG_S),
+                position_in_band: compare(&band(mp), &band(ep), fs, MAX_LAG_S),
+                demand_range: histories.demand[c]
+                    .iter()
+                    .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], d| {
+                        [lo.min(*d), hi.max(*d)]
+                    }),
+            }
+        })
+        .collect();
+    let (response, curves) = match response(config, &histories)? {
+        Some((s, c)) => (Some(s), Some(c)),
+        None => (None, None),
+    };
+    let status = &histories.status;
+    let summary = SimSummary {
+        model: format!("{:?}", config.model.kind).to_lowercase(),
+        channels,
+        sample_rate_hz: fs,
+        samples: n,
+        internal_step_s: step,
+        filter_sections,
+        band_hz: [config.compare.f_min_hz, config.compare.f_max_hz],
+        settle_s: skip as f64 / fs,
+        channel,
+        response,
+        fault_at_s: status
+            .iter()
+            .position(|s| s.mode == Mode::Fault)
+            .map(|k| k as f64 / fs),
+        fault_flags: status.last().map_or(0, |s: &Status| s.fault),
+        links,
+        realtime_factor: n as f64 / fs / elapsed,
+    };
+    Ok(SimOutput {
+        road_names,
+        histories,
+        summary,
+        curves,
+    })
+}
+
+/// Samples left out at the start of the comparison (`[compare] settle_s`), at most all.
+fn settle_samples(config: &Config, samples: usize) -> usize {
+    ((config.compare.settle_s * config.run.sample_rate_hz).round() as usize).min(samples)
+}
+
+/// `[sample][channel]` rows to per-channel columns.
+fn columns(rows: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> {
+    (0..channels)
+        .map(|c| {
+            rows.iter()
+                .map(|r| r.get(c).copied().unwrap_or(0.0))
+                .collect()
+        })
+        .collect()
+}
+
+fn to_f32<const CH: usize>(v: &[f64]) -> [f32; CH] {
+    let mut a = [0.0; CH];
+    for (o, x) in a.iter_mut().zip(v) {
+        *o = *x as f32;
+    }
+    a
+}
+
+/// The response the run estimates, per model: tyre, channel 0's interface force per road
+/// under it (analysis: `interface_force` per `road`); aero, the body's heave per road heave
+/// (analysis: `physical:z_b` per `road_heave`), when both posts carry the same road.
+fn response(config: &Config, h: &Histories) -> Result<Option<(ResponseSummary, ResponseCurves)>> {
+    let fs = config.run.sample_rate_hz;
+    let cmp = &config.compare;
+    let skip = settle_samples(config, h.len());
+    if cmp.segment < 64 || cmp.segment > h.len() - skip {
+        // Too short a run for the estimate: no response section.
+        return Ok(None);
+    }
+    // Aero: body heave from the axle positions, z_b = (l_r y_f + l_f y_r) / (l_f + l_r),
+    // per road heave (the same road under both posts).
+    let heave = |y: &[Vec<f64>]| -> Vec<f64> {
+        let car = AeroExample::default();
+        let (lf, lr) = (car.front_axle_m, car.rear_axle_m);
+        match (y.first(), y.get(1)) {
+            (Some(f), Some(r)) => f
+                .iter()
+                .zip(r)
+                .map(|(a, b)| (lr * a + lf * b) / (lf + lr))
+                .collect(),
+            _ => Vec::new(),
+        }
+    };
+    let (name, unit, input, mil_out, emu_out, signal, analysis_input) = match config.model.kind {
+        ModelKind::Tyre => (
+            "interface force / road, channel 0",
+            "N/m",
+            h.road[0].clone(),
+            h.mil_force[0].clone(),
+            h.emulated_force[0].clone(),
+            "interface_force",
+            "road",
+        ),
+        ModelKind::Aero => {
+            if h.road.len() != 2 || h.road[0] != h.road[1] {
+                // A recorded profile with different posts: no single heave input.
+                return Ok(None);
+            }
+            (
+                "body heave / road heave",
+                "m/m",
+                h.road[0].clone(),
+                heave(&h.mil_position),
+                heave(&h.emulated_position),
+                "physical:z_b",
+                "road_heave",
+            )
+        }
+    };
+    let input = &input[skip..];
+    let (mil_out, emu_out) = (&mil_out[skip..], &emu_out[skip..]);
+    let options = WelchOptions {
+        segment_length: cmp.segment,
+        overlap: 0.75,
+        window: Window::Hann,
+    };
+    let estimate = |out: &[f64]| -> Result<FrfEstimate> {
+        Ok(h1_estimate(&[Record { input, output: out }], fs, &options)?)
+    };
+    let (mil, emu) = (estimate(mil_out)?, estimate(emu_out)?);
+    let keep: Vec<usize> = (0..mil.frequency_hz.len())
+        .filter(|&k| {
+            let f = mil.frequency_hz[k];
+            (cmp.f_min_hz..=cmp.f_max_hz).contains(&f)
+                && mil.coherence[k] >= 0.9
+                && emu.coherence[k] >= 0.9
+                && mil.response[k].is_finite()
+                && emu.response[k].is_finite()
+        })
+        .collect();
+    let mut curves = ResponseCurves {
+        name: name.into(),
+        unit: unit.into(),
+        frequency_hz: keep.iter().map(|&k| mil.frequency_hz[k]).collect(),
+        mil: keep.iter().map(|&k| mil.response[k]).collect(),
+        emulated: keep.iter().map(|&k| emu.response[k]).collect(),
+        predicted: None,
+    };
+    let deviation = |a: &[Complex64], b: &[Complex64]| -> Option<Deviation> {
+        let mut d: Option<Deviation> = None;
+        for (x, y) in a.iter().zip(b) {
+            let r = x / y;
+            let (db, deg) = ((20.0 * r.norm().log10()).abs(), r.arg().to_degrees().abs());
+            let w = d.get_or_insert(Deviation { db: 0.0, deg: 0.0 });
+            w.db = w.db.max(db);
+            w.deg = w.deg.max(deg);
+        }
+        d
+    };
+    let mut summary = ResponseSummary {
+        name: name.into(),
+        band_hz: [cmp.f_min_hz, cmp.f_max_hz],
+        bins: keep.len(),
+        mil_vs_emulated: deviation(&curves.mil, &curves.emulated),
+        mil_vs_analysis: None,
+        emulated_vs_analysis: None,
+        analysis: None,
+    };
+    if let Some(file) = &cmp.analysis {
+        let path: PathBuf = config.base.join(file);
+        let mut setup =
+            Setup::read(&path).with_context(|| format!("compare.analysis {}", path.display()))?;
+        // The prediction is for the controller that ran: the run's command filter replaces
+        // the set-up's.
+        let cascade = config.command_filter()?;
+        setup.system.filter = (cascade.sections > 0).then_some(CommandFilter::Discrete {
+            cascade,
+            sample_period_s: 1.0 / fs,
+        });
+        if (setup.sample_rate_hz - fs).abs() > 1e-9 * fs {
+            bail!(
+                "compare.analysis {} is for {} Hz, the run is at {fs} Hz",
+                path.display(),
+                setup.sample_rate_hz
+            );
+        }
+        if let (ModelKind::Aero, Some(aero)) = (config.model.kind, &config.aero) {
+            if aero.speed_m_per_s != aero.reference_speed_m_per_s {
+                bail!(
+                    "compare.analysis: the analysis set-up holds at the reference speed only \
+                     ({} m/s), the run is at {} m/s",
+                    aero.reference_speed_m_per_s,
+                    aero.speed_m_per_s
+                );
+            }
+        }
+        let output = Signal::parse(signal, &setup.system)?;
+        let input_index = setup
+            .system
+            .inputs
+            .iter()
+            .position(|i| i.name == analysis_input)
+            .with_context(|| format!("{} has no input {analysis_input:?}", path.display()))?;
+        let mut predicted = (Vec::new(), Vec::new());
+        for f in &curves.frequency_hz {
+            predicted
+                .0
+                .push(output.pick(&setup.system.point(*f, Loop::Mil)?, input_index));
+            predicted
+                .1
+                .push(output.pick(&setup.system.point(*f, Loop::Emulated)?, input_index));
+        }
+        summary.mil_vs_analysis = deviation(&curves.mil, &predicted.0);
+        summary.emulated_vs_analysis = deviation(&curves.emulated, &predicted.1);
+        summary.analysis = Some(path.display().to_string());
+        curves.predicted = Some(predicted);
+    }
+    Ok(Some((summary, curves)))
+}
+
+impl SimOutput {
+    /// Writes the time histories as CSV: `time` (s), `road_<i>` (m), then per channel
+    /// `demand_<c>` (N), `mil_position_<c>` (m), `mil_force_<c>` (N),
+    /// `emulated_position_<c>` (m), `emulated_force_<c>` (N), then `mode` and `fault`.
+    ///
+    /// # Errors
+    /// I/O errors.
+    pub fn write_csv(&self, path: &Path) -> Result<()> {
+        let file = std::fs::File::create(path)
+            .with_context(|| format!("cannot create {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        let h = &self.histories;
+        let ch = self.summary.channels;
+        let mut header = vec!["time".to_string()];
+        header.extend(self.road_names.iter().cloned());
+        for c in 0..ch {
+            header.extend(
+                [
+                    "demand",
+                    "mil_position",
+                    "mil_force",
+                    "emulated_position",
+                    "emulated_force",
+                ]
+                .map(|s| format!("{s}_{c}")),
+            );
+        }
+        header.extend(["mode", "fault"].map(String::from));
+        writeln!(w, "{}", header.join(","))?;
+        for k in 0..h.len() {
+            write!(w, "{:.6}", h.time[k])?;
+            for r in &h.road {
+                write!(w, ",{:.9e}", r[k])?;
+            }
+            for c in 0..ch {
+                write!(
+                    w,
+                    ",{:.6e},{:.9e},{:.6e},{:.9e},{:.6e}",
+                    h.demand[c][k],
+                    h.mil_position[c][k],
+                    h.mil_force[c][k],
+                    h.emulated_position[c][k],
+                    h.emulated_force[c][k]
+                )?;
+            }
+            writeln!(w, ",{},{}", h.status[k].mode as u8, h.status[k].fault)?;
+        }
+        w.flush()?;
+        Ok(())
+    }
+
+    /// Writes the plots into `dir`: `forces.svg` and `positions.svg` (MiL against emulated,
+    /// channel 0, over the second around the largest force error) and, when estimated, `response.svg` (Bode diagram of the
+    /// estimates and predictions). Returns the files written.
+    ///
+    /// # Errors
+    /// Drawing or I/O errors.
+    pub fn write_plots(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        let h = &self.histories;
+        let mut files = Vec::new();
+        // One second around channel 0's largest force error (the whole run if shorter).
+        let fs = self.summary.sample_rate_hz;
+        let skip = ((self.summary.settle_s * fs).round() as usize).min(h.len());
+        let worst = match (h.mil_force.first(), h.emulated_force.first()) {
+            (Some(m), Some(e)) => m
+                .iter()
+                .zip(e)
+                .map(|(a, b)| (a - b).abs())
+                .enumerate()
+                .skip(skip)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(0, |(k, _)| k),
+            _ => 0,
+        };
+        let half = (0.5 * fs) as usize;
+        let from = worst.saturating_sub(half);
+        let to = (from + 2 * half).min(h.len());
+        let from = to.saturating_sub(2 * half);
+        let window = format!(
+            "{:.2}-{:.2} s, around the largest force error",
+            from as f64 / fs,
+            to as f64 / fs
+        );
+        let trace = |v: &[f64], scale: f64| -> Vec<(f64, f64)> {
+            h.time[from..to]
+                .iter()
+                .zip(&v[from..to])
+                .map(|(t, x)| (*t, x * scale))
+                .collect()
+        };
+        let name = self
+            .summary
+            .channel
+            .first()
+            .map_or_else(String::new, |c| c.name.clone());
+        for (file, title, label, mil, emu, scale) in [
+            (
+                "forces.svg",
+                format!("Interface force, {name}, {window}"),
+                "force [kN]",
+                &h.mil_force,
+                &h.emulated_force,
+                1e-3,
+            ),
+            (
+                "positions.svg",
+                format!("Attachment position, {name}, {window}"),
+                "position [mm]",
+                &h.mil_position,
+                &h.emulated_position,
+                1e3,
+            ),
+        ] {
+            let (Some(m), Some(e)) = (mil.first(), emu.first()) else {
+                continue;
+            };
+            let mut plot = XyPlot::new(title, "time [s]", label);
+            plot.series = vec![
+                XySeries::new("emulated (vehicle)", trace(e, scale), SeriesStyle::Line),
+                XySeries::new("MiL rig", trace(m, scale), SeriesStyle::Dashed),
+            ];
+            let path = dir.join(file);
+            mil_plots::xy_svg(&path, &plot)?;
+            files.push(path);
+        }
+        if let Some(c) = &self.curves {
+            let mut plot = BodePlot::new(
+                format!("Response from the run: {}", c.name),
+                format!("|{}| [{}]", c.name, c.unit),
+            );
+            plot.series = vec![
+                BodeSeries::new(
+                    "emulated, estimated",
+                    c.frequency_hz.clone(),
+                    c.emulated.clone(),
+                ),
+                BodeSeries::new("MiL, estimated", c.frequency_hz.clone(), c.mil.clone()),
+            ];
+            if let Some((mil, emu)) = &c.predicted {
+                let mut a =
+                    BodeSeries::new("emulated, analysis", c.frequency_hz.clone(), emu.clone());
+                a.dashed = true;
+                let mut b = BodeSeries::new("MiL, analysis", c.frequency_hz.clone(), mil.clone());
+                b.dashed = true;
+                plot.series.extend([a, b]);
+            }
+            let path = dir.join("response.svg");
+            mil_plots::bode_svg(&path, &plot)?;
+            files.push(path);
+        }
+        Ok(files)
+    }
+
+    /// The summary as a human-readable table.
+    pub fn table(&self) -> String {
+        let s = &self.summary;
+        let opt = |v: Option<f64>, digits: usize| {
+            v.map_or_else(|| "-".to_string(), |x| format!("{x:.digits$}"))
+        };
+        let mut out = format!(
+            "model {} on the simulated rig | compared from {:.2} s | {} channels | {:.0} Hz | {} samples ({:.1} s) | RK4 {:.0} us | command filter: {}\n",
+            s.model,
+            s.settle_s,
+            s.channels,
+            s.sample_rate_hz,
+            s.samples,
+            s.samples as f64 / s.sample_rate_hz,
+            s.internal_step_s * 1e6,
+            if s.filter_sections == 0 {
+                "none".to_string()
+            } else {
+                format!("{} section(s)", s.filter_sections)
+            }
+        );
+        out += "MiL vs emulated   signal     J1 delay [ms]  J2 NRMS [%]  J3 peak [%]   RMS error  peak error\n";
+        for c in &s.channel {
+            let in_band = format!("<{:.0} Hz", s.band_hz[1]);
+            for (what, cmp, unit, scale) in [
+                ("force", &c.force, "N", 1.0),
+                (in_band.as_str(), &c.force_in_band, "N", 1.0),
+                ("position", &c.position, "mm", 1e3),
+                (in_band.as_str(), &c.position_in_band, "mm", 1e3),
+            ] {
+                out += &format!(
+                    "{:<17} {:<9} {:>14} {:>12} {:>12} {:>9.3} {unit} {:>8.3} {unit}\n",
+                    c.name,
+                    what,
+                    opt(cmp.delay_ms, 2),
+                    opt(cmp.nrms_error_pct, 2),
+                    opt(cmp.peak_error_pct, 2),
+                    cmp.rms_error * scale,
+                    cmp.peak_error * scale,
+                );
+            }
+        }
+        if let Some(r) = &s.response {
+            let dev = |d: &Option<Deviation>| {
+                d.map_or_else(
+                    || "-".to_string(),
+                    |d| format!("{:.2} dB / {:.1} deg", d.db, d.deg),
+                )
+            };
+            out += &format!(
+                "response {} over {:.1}-{:.1} Hz ({} bins, coherence >= 0.9), worst deviation:\n",
+                r.name, r.band_hz[0], r.band_hz[1], r.bins
+            );
+            out += &format!(
+                "  MiL vs emulated (both estimated): {}\n",
+                dev(&r.mil_vs_emulated)
+            );
+            if r.analysis.is_some() {
+                out += &format!(
+                    "  MiL vs analysis prediction:      {}\n",
+                    dev(&r.mil_vs_analysis)
+                );
+                out += &format!(
+                    "  emulated vs analysis prediction: {}\n",
+                    dev(&r.emulated_vs_analysis)
+                );
+            }
+        }
+        out += &match s.fault_at_s {
+            Some(t) => format!("FAULT at {t:.4} s (flags {:#04x})\n", s.fault_flags),
+            None => "no fault\n".to_string(),
+        };
+        out += &format!(
+            "links: {} frames, {} dropped, {} corrupted | real-time factor {:.0}x (informational)\n",
+            s.links.frames, s.links.dropped, s.links.corrupted, s.realtime_factor
+        );
+        out
+    }
+}
