@@ -2,11 +2,87 @@
 //! actuator, model-core's tyre controller step, the emulated system alongside) at a 5 kHz
 //! control rate, simulated seconds per wall-clock second. Target: at least 1000 on one core.
 //!
-//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds> <internal_step_s>]`
+//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds> <internal_step_s> [rk4|affine-tyre]]`
+//!
+//! With `rk4` the plants take plain RK4 steps only ([`mil_rig::plant::Plant::set_exact_steps`]
+//! off). With `affine-tyre` the emulated plant's tyre is a local copy of the rigs' ideal
+//! tyre that also declares its affine form ([`IdealInterface::affine`]), so that the emulated
+//! plant takes exact steps too (what `IdealTyre` would give with that method). After the closed-loop run, each plant is replayed alone on the run's demand and road
+//! (`sample` then `advance` per control step, as the harness calls them) to split the cost.
 
-use mil_rig::harness::{run, Instrumentation};
-use mil_rig::rigs::{paper_tyre_part, tyre_controller, tyre_input};
+use mil_rig::effects::{Effects, Element};
+use mil_rig::harness::{run, Histories, Instrumentation};
+use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
+use mil_rig::rigs::{ideal_tyre, paper_tyre_part, tyre_controller, tyre_input};
 use model_core::{DemandLimits, TyreParams};
+use std::time::Instant;
+
+/// Wall-clock time (s) of `plant` alone over the run `h` at `fs` (Hz): `sample` and
+/// `advance` per control step with the run's demand, and the road (m) when `road` is set.
+fn replay(plant: &mut Plant, h: &Histories, fs: f64, road: bool) -> f64 {
+    let dt = 1.0 / fs;
+    let demand = &h.demand[0];
+    let w = &h.road[0];
+    let n = h.len();
+    plant.rest(&[demand.first().copied().unwrap_or(0.0)]);
+    let started = Instant::now();
+    let mut applied = [f64::from(TyreParams::PAPER.static_load)];
+    let mut acc = 0.0;
+    for k in 0..n {
+        let (now, next) = (w[k], w[(k + 1).min(n - 1)]);
+        let previous = w[k.saturating_sub(1)];
+        let rate = [(next - previous) / (2.0 * dt)];
+        let (from, to): (&[f64], &[f64]) = if road { (&[now], &[next]) } else { (&[], &[]) };
+        let r: &[f64] = if road { &rate } else { &[] };
+        plant.sample(&applied, from, r);
+        acc += plant.force()[0];
+        plant.advance(dt, &applied, from, to);
+        applied = [demand[k]];
+    }
+    std::hint::black_box(acc);
+    started.elapsed().as_secs_f64()
+}
+
+/// The rigs' ideal tyre on one channel, `F = F_0 + k_t (w − y) + c_t (ẇ − ẏ)` with its
+/// lift-off, declaring its affine form.
+struct AffineTyre(Element);
+
+impl IdealInterface for AffineTyre {
+    fn forces(
+        &self,
+        y: &[f64],
+        y_dot: &[f64],
+        road: &[f64],
+        road_rate: &[f64],
+        forces: &mut [f64],
+    ) {
+        let x = road.first().copied().unwrap_or(0.0) - y.first().copied().unwrap_or(0.0);
+        let v = road_rate.first().copied().unwrap_or(0.0) - y_dot.first().copied().unwrap_or(0.0);
+        if let Some(f) = forces.first_mut() {
+            *f = self.0.force(x, v, 0.0);
+        }
+    }
+
+    fn affine(&self) -> Option<AffineInterface> {
+        let (k, c) = (self.0.stiffness_n_per_m, self.0.damping_n_s_per_m);
+        let only_lift_off = Effects {
+            lift_off: self.0.effects.lift_off,
+            ..Effects::default()
+        };
+        (self.0.effects == only_lift_off).then(|| AffineInterface {
+            offset_n: vec![self.0.preload_n],
+            position_n_per_m: vec![vec![-k]],
+            velocity_n_s_per_m: vec![vec![-c]],
+            road_n_per_m: vec![vec![k]],
+            road_rate_n_s_per_m: vec![vec![c]],
+            lower_bound_n: vec![if self.0.effects.lift_off {
+                0.0
+            } else {
+                f64::NEG_INFINITY
+            }],
+        })
+    }
+}
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -16,7 +92,20 @@ fn main() {
         .next()
         .and_then(|a| a.parse().ok())
         .unwrap_or(mil_rig::DEFAULT_INTERNAL_STEP_S);
+    let mode = args.next();
+    let exact = mode.as_deref() != Some("rk4");
     let mut parts = vec![paper_tyre_part(internal_step_s).expect("rig")];
+    if mode.as_deref() == Some("affine-tyre") {
+        let specimen = parts[0].emulated.specimen().clone();
+        parts[0].emulated = Plant::with_ideal_interface(
+            specimen,
+            Box::new(AffineTyre(ideal_tyre(&TyreParams::PAPER))),
+            internal_step_s,
+        )
+        .expect("emulated plant");
+    }
+    parts[0].mil.set_exact_steps(exact);
+    parts[0].emulated.set_exact_steps(exact);
     let n = (fs * seconds) as usize;
     let road: Vec<Vec<f64>> = vec![(0..n)
         .map(|k| {
@@ -30,7 +119,7 @@ fn main() {
         rate: 1.0e9,
     };
     let mut controller = tyre_controller(TyreParams::PAPER, limits, fs).expect("controller");
-    let started = std::time::Instant::now();
+    let started = Instant::now();
     let (h, _) = run(
         &mut controller,
         &mut parts,
@@ -45,9 +134,27 @@ fn main() {
     let wall = started.elapsed().as_secs_f64();
     assert_eq!(h.len(), n);
     println!(
-        "tyre example, {fs:.0} Hz control, internal step {:.0} us, {seconds:.0} s simulated in {wall:.3} s: real-time factor {:.0}x ({:.0} ns per control step)",
+        "tyre example, {fs:.0} Hz control, internal step {:.0} us{}, {seconds:.0} s simulated in {wall:.3} s: real-time factor {:.0}x ({:.0} ns per control step)",
         internal_step_s * 1e6,
+        match mode.as_deref() {
+            Some("rk4") => " (plain RK4)",
+            Some("affine-tyre") => " (affine emulated tyre)",
+            _ => "",
+        },
         seconds / wall,
         wall / n as f64 * 1e9
+    );
+    let (mil, emulated) = (parts[0].mil.step_counts(), parts[0].emulated.step_counts());
+    println!(
+        "internal steps: MiL {} exact + {} RK4, emulated {} exact + {} RK4",
+        mil.exact, mil.rk4, emulated.exact, emulated.rk4
+    );
+    let mil_s = replay(&mut parts[0].mil, &h, fs, false);
+    let emulated_s = replay(&mut parts[0].emulated, &h, fs, true);
+    println!(
+        "replayed alone, ns per control step: MiL plant {:.0}, emulated plant {:.0}, the rest of the loop {:.0}",
+        mil_s / n as f64 * 1e9,
+        emulated_s / n as f64 * 1e9,
+        (wall - mil_s - emulated_s) / n as f64 * 1e9
     );
 }

@@ -221,6 +221,83 @@ impl ForceActuator {
         ]
     }
 
+    /// Whether the actuator has a linear regime: no Coulomb seal friction, no spool rate
+    /// limit and the ΔP compensation on. Inside that regime (see
+    /// [`ForceActuator::in_linear_regime`]) [`ForceActuator::derivative`] equals the affine
+    /// [`ForceActuator::linear_regime_derivative`] and [`ForceActuator::piston_force`] is
+    /// `A P_L − c_a ẏ`.
+    pub fn has_linear_regime(&self) -> bool {
+        self.friction == 0.0
+            && self.rate_limit == f64::INFINITY
+            && !self.effects.uncompensated_orifice
+    }
+
+    /// The valve command `u = K_p (F_c − F) + K_i q` (fraction of full opening) and the
+    /// flow demand `x_v + κ A ẏ / K_q` (fraction of `K_q`) at actuator state `x`, force
+    /// demand `demand_n` (N), load-cell force `load_cell_n` (N) and rod velocity (m/s): the
+    /// two signals [`ForceActuator::in_linear_regime`] tests, as
+    /// [`ForceActuator::derivative`] computes them.
+    #[inline]
+    pub fn valve_signals(
+        &self,
+        x: &[f64; ACTUATOR_STATES],
+        demand_n: f64,
+        load_cell_n: f64,
+        rod_velocity: f64,
+    ) -> (f64, f64) {
+        let p = &self.params;
+        let u = p.proportional_gain_per_n * (demand_n - load_cell_n)
+            + p.integral_gain_per_n_s * x[state::FORCE_ERROR_INTEGRAL];
+        (u, x[state::SPOOL] + self.feedforward_gain * rod_velocity)
+    }
+
+    /// Whether the valve command `u` (fraction of full opening), the flow demand `demanded`
+    /// (fraction of `K_q`) and the load pressure `load_pressure_pa` (Pa) lie in the linear
+    /// regime, in which [`ForceActuator::derivative`] takes exactly its affine branches: the
+    /// command within the spool limit (so the integrator integrates), and the ΔP-compensated
+    /// spool opening within it too. `false` for NaN, and always `false` without
+    /// [`ForceActuator::has_linear_regime`].
+    #[inline]
+    pub fn in_linear_regime(&self, u: f64, demanded: f64, load_pressure_pa: f64) -> bool {
+        if !self.has_linear_regime() {
+            return false;
+        }
+        let p = &self.params;
+        let drop = (p.supply_pressure_pa - demanded.signum() * load_pressure_pa).max(0.0);
+        let root = (drop * self.inverse_supply_pressure).sqrt();
+        u.abs() <= self.spool_limit && root >= 1e-3 && demanded.abs() <= self.spool_limit * root
+    }
+
+    /// State derivatives in the linear regime (the affine branches of
+    /// [`ForceActuator::derivative`]: unsaturated command, integrating, compensated flow
+    /// `K_q x_d`), for any state; arguments as there. Equal to
+    /// [`ForceActuator::derivative`] wherever [`ForceActuator::in_linear_regime`] holds.
+    #[inline]
+    pub fn linear_regime_derivative(
+        &self,
+        x: &[f64; ACTUATOR_STATES],
+        demand_n: f64,
+        load_cell_n: f64,
+        rod_velocity: f64,
+    ) -> [f64; ACTUATOR_STATES] {
+        let p = &self.params;
+        let error = demand_n - load_cell_n;
+        let (u, demanded) = self.valve_signals(x, demand_n, load_cell_n, rod_velocity);
+        let spool_acceleration =
+            self.wv2 * (u - x[state::SPOOL]) - self.two_zeta_wv * x[state::SPOOL_RATE];
+        let flow = p.flow_gain_m3_per_s * demanded;
+        let pressure_rate = self.compressibility_gain
+            * (flow
+                - p.piston_area_m2 * rod_velocity
+                - p.flow_pressure_coefficient * x[state::LOAD_PRESSURE]);
+        [
+            x[state::SPOOL_RATE],
+            spool_acceleration,
+            pressure_rate,
+            error,
+        ]
+    }
+
     /// The state at rest holding the force `force_n` (N) with the rod still: `P_L = F/A`, and
     /// the spool opened just enough to feed the leakage at that pressure, held there by the
     /// integrator.

@@ -11,8 +11,27 @@
 //! With actuators, each actuator's rod mass `m_a` joins the specimen's mass matrix at its
 //! attachment (`M + m_a t_j t_jᵀ`), the piston force `F_p` acts on the specimen, and the
 //! load cell measures `F_j = F_p,j − m_a ÿ_j` (the force on the specimen).
+//!
+//! # Exact steps in the linear regime
+//!
+//! A plant whose every part is affine in a region of its state space (every element linear
+//! or with lift-off only, no Bouc-Wen; actuators with
+//! [`ForceActuator::has_linear_regime`]; an ideal interface that declares its
+//! [`IdealInterface::affine`] form) is piecewise linear: `ẋ = A x + B v` with
+//! `v = [demand; road; road rate; 1]`. For it the plant takes *exact* internal steps: the
+//! state-transition matrix `e^{A h}` and the input integrals over a step `h` (exact for a
+//! held demand and a linearly ramping road, computed once per step length), applied while
+//! the state at both ends of the step lies in the linear regime (element and interface
+//! forces above their lift-off bounds, actuators in [`ForceActuator::in_linear_regime`]).
+//! Any other step is the RK4 step from the same state, so a step that leaves or enters the
+//! regime is exactly the plain RK4 one; an excursion out of the regime and back strictly
+//! inside one internal step goes unnoticed (RK4 sees only its stage points, too). The
+//! signals of [`Plant::sample`] come from the same affine model in the regime.
+//! [`Plant::set_exact_steps`] switches this off (plain RK4 everywhere);
+//! [`Plant::step_counts`] counts both kinds of step.
 
 use crate::actuator::{ForceActuator, ACTUATOR_STATES};
+use crate::effects::{Effects, Element};
 use crate::specimen::{Specimen, SpecimenError};
 
 /// The forces an ideal interface (the emulated system's numerical part, coupled without
@@ -22,6 +41,40 @@ pub trait IdealInterface {
     /// position `y` (m) and velocity `y_dot` (m/s), and per road input its value `road` (m)
     /// and rate `road_rate` (m/s).
     fn forces(&self, y: &[f64], y_dot: &[f64], road: &[f64], road_rate: &[f64], forces: &mut [f64]);
+
+    /// The law's affine form, if it has one: [`IdealInterface::forces`] must return exactly
+    /// (to rounding) the [`AffineInterface`] force on every channel wherever that exceeds the
+    /// channel's lower bound, and a force not above the bound elsewhere (e.g. lift-off). With
+    /// it, the plant takes exact linear steps (see the module documentation). `None` (the
+    /// default): the law is treated as nonlinear.
+    fn affine(&self) -> Option<AffineInterface> {
+        None
+    }
+}
+
+/// The affine form of an ideal interface law (see [`IdealInterface::affine`]): per channel
+/// `j`,
+///
+/// ```text
+/// F_j = offset_j + Σ_k (position_jk y_k + velocity_jk ẏ_k) + Σ_i (road_ji w_i + road_rate_ji ẇ_i)
+/// ```
+///
+/// valid where `F_j > lower_bound_j`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AffineInterface {
+    /// Force at rest `offset_j` per channel (N).
+    pub offset_n: Vec<f64>,
+    /// Stiffness per channel and attachment `position_jk` (N/m).
+    pub position_n_per_m: Vec<Vec<f64>>,
+    /// Damping per channel and attachment `velocity_jk` (N·s/m).
+    pub velocity_n_s_per_m: Vec<Vec<f64>>,
+    /// Gain per channel and road input `road_ji` (N/m).
+    pub road_n_per_m: Vec<Vec<f64>>,
+    /// Gain per channel and road rate `road_rate_ji` (N·s/m).
+    pub road_rate_n_s_per_m: Vec<Vec<f64>>,
+    /// Per channel the force (N) the affine form must exceed to hold (`f64::NEG_INFINITY`:
+    /// everywhere; 0 for lift-off).
+    pub lower_bound_n: Vec<f64>,
 }
 
 /// What drives the specimen.
@@ -48,7 +101,108 @@ pub struct PlantOutputs {
     pub spool: Vec<f64>,
 }
 
-/// The specimen with its drive, state and scratch space (no allocation while stepping).
+/// Internal steps taken since the plant was built, by kind (see the module documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepCounts {
+    /// Exact linear steps.
+    pub exact: u64,
+    /// RK4 steps.
+    pub rk4: u64,
+}
+
+/// An element's force law, specialised once.
+#[derive(Clone, Copy, Debug)]
+enum ElementLaw {
+    /// `preload + k x + c v` (no effects).
+    Linear { k: f64, c: f64, preload: f64 },
+    /// [`Element::force`] and [`Element::state_rate`].
+    General,
+}
+
+/// Size of the fixed-size derivative kernel: specimens of up to this many DOFs and road
+/// inputs (every built-in one) are evaluated with their vectors padded with zeros to it, so
+/// that every dot product is one unrolled expression.
+const FIXED: usize = 4;
+
+/// A vector of the fixed-size kernel.
+type Fixed4 = [f64; FIXED];
+
+/// The specimen's coefficients for the fixed-size kernel (zero-padded).
+struct Fixed {
+    /// `t_j` per channel.
+    attachments: Vec<Fixed4>,
+    /// `M⁻¹ t_j` per channel.
+    inv_mass_attachments: Vec<Fixed4>,
+    /// `a_e` per element.
+    element_dofs: Vec<Fixed4>,
+    /// `b_e` per element.
+    element_inputs: Vec<Fixed4>,
+    /// `M⁻¹ a_e` per element.
+    inv_mass_elements: Vec<Fixed4>,
+    /// `M⁻¹ g`.
+    inv_mass_static: Fixed4,
+}
+
+/// `v` zero-padded (or cut) to [`FIXED`].
+#[inline]
+fn pad(v: &[f64]) -> Fixed4 {
+    let mut a = [0.0; FIXED];
+    copy(&mut a, v);
+    a
+}
+
+/// The fixed-size dot product (pairwise; exact zeros in the padding).
+#[inline]
+fn dot4(a: &Fixed4, b: &Fixed4) -> f64 {
+    (a[0] * b[0] + a[1] * b[1]) + (a[2] * b[2] + a[3] * b[3])
+}
+
+/// One test of the linear regime on the regime quantities (in order).
+#[derive(Clone, Copy, Debug)]
+enum RegimeTest {
+    /// An element with lift-off: its unclamped force (N) `>= 0`.
+    NonNegative,
+    /// An ideal interface channel: its affine force (N) above the bound.
+    Above(f64),
+    /// Actuator `j`: the next three quantities are `u`, the flow demand and `P_L`.
+    Actuator(usize),
+}
+
+/// The piecewise-linear plant's affine model and its exact discretisation. Columns of the
+/// extended vector `ξ = [x (N); demand (channels); road (inputs); road rate (inputs); 1]`.
+struct LinearModel {
+    states: usize,
+    cols: usize,
+    channels: usize,
+    inputs: usize,
+    /// `[[A, B], [0, S]]` (cols × cols; `S` ramps the road with its rate), balanced:
+    /// `D⁻¹ G D` with `D = diag(balance)`.
+    generator: Vec<f64>,
+    balance: Vec<f64>,
+    /// Rows `y` (channels), `ẏ` (channels), `F` (channels) over `ξ`.
+    outputs: Vec<f64>,
+    /// Regime quantities' rows over `ξ`, tested by `tests`.
+    regime: Vec<f64>,
+    tests: Vec<RegimeTest>,
+    /// The step (s) `step` is for; NaN: none.
+    step_s: f64,
+    /// `x(h) = [Φ Γ] ξ(0)` (states × cols).
+    step: Vec<f64>,
+    xi: Vec<f64>,
+    /// The last `xi` found in the linear regime (NaN: none), so that the same point is not
+    /// tested twice (the end of a step and the start of the next, a sample and the step
+    /// that follows it).
+    in_regime_at: Vec<f64>,
+    next: Vec<f64>,
+    // Scratch of the matrix exponential (cols × cols each).
+    exp: Vec<f64>,
+    term: Vec<f64>,
+    product: Vec<f64>,
+}
+
+/// The specimen with its drive, state and scratch space (no allocation while stepping; the
+/// exact discretisation is recomputed in place, about 20 small matrix products, whenever the
+/// step length changes).
 pub struct Plant {
     specimen: Specimen,
     drive: Drive,
@@ -57,13 +211,19 @@ pub struct Plant {
     element_states: usize,
     /// Inverse of the total mass matrix, row-major.
     inv_mass: Vec<f64>,
+    /// `M⁻¹ g` (static forces' accelerations).
+    inv_mass_static: Vec<f64>,
+    /// `M⁻¹ a_e`, row-major (elements × n).
+    inv_mass_elements: Vec<f64>,
+    /// `M⁻¹ t_j`, row-major (channels × n).
+    inv_mass_attachments: Vec<f64>,
+    laws: Vec<ElementLaw>,
     state: Vec<f64>,
     time_s: f64,
     internal_step_s: f64,
     // Scratch.
     k: [Vec<f64>; 4],
     tmp: Vec<f64>,
-    generalised: Vec<f64>,
     accel: Vec<f64>,
     y: Vec<f64>,
     y_dot: Vec<f64>,
@@ -83,6 +243,11 @@ pub struct Plant {
     sampled_demand: Vec<f64>,
     sampled_road: Vec<f64>,
     sampled_road_rate: Vec<f64>,
+    /// The specimen's coefficients padded to [`FIXED`] (when it fits).
+    fixed: Option<Fixed>,
+    linear: Option<Box<LinearModel>>,
+    exact_steps: bool,
+    counts: StepCounts,
 }
 
 /// Inverse of a small square matrix given as rows (Gauss–Jordan with partial pivoting),
@@ -148,6 +313,237 @@ fn copy(dst: &mut [f64], src: &[f64]) {
     }
 }
 
+/// `out = a b` for square row-major matrices of size `p`.
+fn matmul(a: &[f64], b: &[f64], p: usize, out: &mut [f64]) {
+    if p == 0 {
+        return;
+    }
+    for (o_row, a_row) in out.chunks_exact_mut(p).zip(a.chunks_exact(p)) {
+        o_row.iter_mut().for_each(|o| *o = 0.0);
+        for (aik, b_row) in a_row.iter().zip(b.chunks_exact(p)) {
+            if *aik != 0.0 {
+                for (o, bkj) in o_row.iter_mut().zip(b_row) {
+                    *o += aik * bkj;
+                }
+            }
+        }
+    }
+}
+
+/// Balances the square row-major matrix `a` (size `p`) in place by a diagonal similarity of
+/// powers of two (exact), `a ← D⁻¹ a D`; returns `D`'s diagonal. Makes the norm that
+/// scales the matrix exponential meaningful for states in units as far apart as m and Pa.
+fn balance(a: &mut [f64], p: usize) -> Vec<f64> {
+    let mut d = vec![1.0; p];
+    for _ in 0..100 {
+        let mut done = true;
+        for i in 0..p {
+            let (mut c, mut r) = (0.0, 0.0);
+            for j in (0..p).filter(|&j| j != i) {
+                c += a.get(j * p + i).map_or(0.0, |v| v.abs());
+                r += a.get(i * p + j).map_or(0.0, |v| v.abs());
+            }
+            if !(c > 0.0 && r > 0.0 && c.is_finite() && r.is_finite()) {
+                continue;
+            }
+            let s = c + r;
+            let mut f = 1.0;
+            while c < r / 2.0 && f < 1e150 {
+                f *= 2.0;
+                c *= 4.0;
+            }
+            while c >= r * 2.0 && f > 1e-150 {
+                f /= 2.0;
+                c /= 4.0;
+            }
+            if (c + r) / f < 0.95 * s {
+                done = false;
+                if let Some(di) = d.get_mut(i) {
+                    *di *= f;
+                }
+                for j in 0..p {
+                    if let Some(v) = a.get_mut(i * p + j) {
+                        *v /= f;
+                    }
+                    if let Some(v) = a.get_mut(j * p + i) {
+                        *v *= f;
+                    }
+                }
+            }
+        }
+        if done {
+            break;
+        }
+    }
+    d
+}
+
+impl LinearModel {
+    /// `e^{G h}` of the balanced generator into `exp` (scaling and squaring of a Taylor
+    /// series of degree 18 at norm <= 1/2), then the step rows `[Φ Γ]` un-balanced. False
+    /// (and no step) if the result is not finite.
+    fn discretise(&mut self, h: f64) -> bool {
+        let p = self.cols;
+        let norm = (0..p)
+            .map(|j| {
+                (0..p)
+                    .map(|i| self.generator.get(i * p + j).map_or(0.0, |v| (v * h).abs()))
+                    .sum::<f64>()
+            })
+            .fold(0.0_f64, f64::max);
+        let mut squarings = 0;
+        let mut scale = h;
+        let mut reduced = norm;
+        while reduced > 0.5 && squarings < 200 {
+            reduced *= 0.5;
+            scale *= 0.5;
+            squarings += 1;
+        }
+        // exp = term = I.
+        for (i, (e, t)) in self.exp.iter_mut().zip(self.term.iter_mut()).enumerate() {
+            let v = if i % (p + 1) == 0 { 1.0 } else { 0.0 };
+            *e = v;
+            *t = v;
+        }
+        for k in 1..=18 {
+            matmul(&self.term, &self.generator, p, &mut self.product);
+            let f = scale / f64::from(k);
+            for ((t, pr), e) in self
+                .term
+                .iter_mut()
+                .zip(&self.product)
+                .zip(self.exp.iter_mut())
+            {
+                *t = pr * f;
+                *e += *t;
+            }
+        }
+        for _ in 0..squarings {
+            matmul(&self.exp, &self.exp, p, &mut self.product);
+            std::mem::swap(&mut self.exp, &mut self.product);
+        }
+        let mut finite = true;
+        for i in 0..self.states {
+            let di = self.balance.get(i).copied().unwrap_or(1.0);
+            for (j, (s, e)) in self
+                .step
+                .get_mut(i * p..i * p + p)
+                .unwrap_or(&mut [])
+                .iter_mut()
+                .zip(row(&self.exp, i, p))
+                .enumerate()
+            {
+                *s = di * e / self.balance.get(j).copied().unwrap_or(1.0);
+                finite &= s.is_finite();
+            }
+        }
+        self.step_s = if finite { h } else { f64::NAN };
+        finite
+    }
+
+    /// Fills `xi` with `[x; demand; road; road rate; 1]`.
+    fn fill(&mut self, x: &[f64], demand: &[f64], road: &[f64], road_rate: &[f64]) {
+        let len = self.xi.len();
+        let (xs, rest) = self.xi.split_at_mut(self.states.min(len));
+        copy(xs, x);
+        let (ds, rest) = rest.split_at_mut(self.channels.min(rest.len()));
+        copy(ds, demand);
+        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
+        copy(ws, road);
+        let (rs, one) = rest.split_at_mut(self.inputs.min(rest.len()));
+        copy(rs, road_rate);
+        if let Some(o) = one.first_mut() {
+            *o = 1.0;
+        }
+    }
+
+    /// Sets the road in `xi` to the ramp from `from` to `to` (m) over `duration_s` (s) at
+    /// `fraction` of it, and the road rate to the ramp's (m/s), as [`Plant::advance`]'s RK4
+    /// steps do.
+    fn set_ramp(&mut self, from: &[f64], to: &[f64], fraction: f64, duration_s: f64) {
+        let start = self.states + self.channels;
+        let rest = self.xi.get_mut(start..).unwrap_or(&mut []);
+        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
+        for ((w, rate), (a, b)) in ws.iter_mut().zip(rest.iter_mut()).zip(from.iter().zip(to)) {
+            *w = a + fraction * (b - a);
+            *rate = (b - a) / duration_s;
+        }
+    }
+
+    /// Whether `xi` lies in the linear regime (false for NaN), remembering the last point
+    /// found in it.
+    fn in_regime(&mut self, actuators: &[ForceActuator]) -> bool {
+        if self.in_regime_at == self.xi {
+            return true;
+        }
+        let inside = self.test_regime(actuators);
+        if inside {
+            copy(&mut self.in_regime_at, &self.xi);
+        }
+        inside
+    }
+
+    /// Whether `xi` lies in the linear regime (false for NaN).
+    fn test_regime(&self, actuators: &[ForceActuator]) -> bool {
+        let cols = self.cols;
+        let mut r = 0;
+        let mut value = || {
+            let v = dot(row(&self.regime, r, cols), &self.xi);
+            r += 1;
+            v
+        };
+        for test in &self.tests {
+            let ok = match *test {
+                RegimeTest::NonNegative => value() >= 0.0,
+                RegimeTest::Above(bound) => value() > bound,
+                RegimeTest::Actuator(j) => {
+                    let (u, demanded, pl) = (value(), value(), value());
+                    actuators
+                        .get(j)
+                        .is_some_and(|a| a.in_linear_regime(u, demanded, pl))
+                }
+            };
+            if !ok {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// One exact step of `self.step_s` from `x` (in place) with the demand held and the
+    /// road on the ramp from `from` to `to` (m) over `duration_s` (s), between the fractions
+    /// `f0` and `f1` of it; false (and `x` unchanged) when either end is outside the linear
+    /// regime.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        x: &mut [f64],
+        actuators: &[ForceActuator],
+        demand: &[f64],
+        from: &[f64],
+        to: &[f64],
+        (f0, f1): (f64, f64),
+        duration_s: f64,
+    ) -> bool {
+        self.fill(x, demand, &[], &[]);
+        self.set_ramp(from, to, f0, duration_s);
+        if !self.in_regime(actuators) {
+            return false;
+        }
+        let cols = self.cols;
+        for (i, nx) in self.next.iter_mut().enumerate() {
+            *nx = dot(row(&self.step, i, cols), &self.xi);
+        }
+        copy(&mut self.xi, &self.next);
+        self.set_ramp(from, to, f1, duration_s);
+        if !self.in_regime(actuators) {
+            return false;
+        }
+        copy(x, &self.next);
+        true
+    }
+}
+
 impl Plant {
     /// The MiL rig: `actuators[j]` drives attachment `j`; `internal_step_s` is the RK4 step
     /// (s).
@@ -203,18 +599,74 @@ impl Plant {
         }
         let inv_mass =
             invert(&total).ok_or_else(|| SpecimenError("singular total mass matrix".into()))?;
+        let times_inv_mass =
+            |v: &[f64]| -> Vec<f64> { (0..n).map(|i| dot(row(&inv_mass, i, n), v)).collect() };
+        let inv_mass_static = times_inv_mass(&specimen.static_force);
+        let inv_mass_elements = specimen
+            .elements
+            .iter()
+            .flat_map(|e| times_inv_mass(&e.dof_coefficients))
+            .collect();
+        let inv_mass_attachments = specimen
+            .attachments
+            .iter()
+            .flat_map(|t| times_inv_mass(t))
+            .collect();
+        let inputs = specimen.inputs.len();
+        let fixed = (n <= FIXED && inputs <= FIXED).then(|| Fixed {
+            attachments: specimen.attachments.iter().map(|t| pad(t)).collect(),
+            inv_mass_attachments: specimen
+                .attachments
+                .iter()
+                .map(|t| pad(&times_inv_mass(t)))
+                .collect(),
+            element_dofs: specimen
+                .elements
+                .iter()
+                .map(|e| pad(&e.dof_coefficients))
+                .collect(),
+            element_inputs: specimen
+                .elements
+                .iter()
+                .map(|e| pad(&e.input_coefficients))
+                .collect(),
+            inv_mass_elements: specimen
+                .elements
+                .iter()
+                .map(|e| pad(&times_inv_mass(&e.dof_coefficients)))
+                .collect(),
+            inv_mass_static: pad(&inv_mass_static),
+        });
+        let laws = specimen
+            .elements
+            .iter()
+            .map(|e| {
+                if e.element.is_linear() {
+                    ElementLaw::Linear {
+                        k: e.element.stiffness_n_per_m,
+                        c: e.element.damping_n_s_per_m,
+                        preload: e.element.preload_n,
+                    }
+                } else {
+                    ElementLaw::General
+                }
+            })
+            .collect();
         let element_states = specimen.elements.iter().map(|e| e.element.states()).sum();
         let actuator_states = match &drive {
             Drive::Actuators(a) => a.len() * ACTUATOR_STATES,
             Drive::Ideal(_) => 0,
         };
         let len = 2 * n + element_states + actuator_states;
-        let inputs = specimen.inputs.len();
-        Ok(Self {
+        let mut plant = Self {
             n,
             channels,
             element_states,
             inv_mass,
+            inv_mass_static,
+            inv_mass_elements,
+            inv_mass_attachments,
+            laws,
             state: vec![0.0; len],
             time_s: 0.0,
             internal_step_s,
@@ -225,7 +677,6 @@ impl Plant {
                 vec![0.0; len],
             ],
             tmp: vec![0.0; len],
-            generalised: vec![0.0; n],
             accel: vec![0.0; n],
             y: vec![0.0; channels],
             y_dot: vec![0.0; channels],
@@ -249,7 +700,232 @@ impl Plant {
             sampled_road_rate: vec![0.0; inputs],
             specimen,
             drive,
+            fixed,
+            linear: None,
+            exact_steps: true,
+            counts: StepCounts::default(),
+        };
+        plant.linear = plant.linear_model().map(Box::new);
+        Ok(plant)
+    }
+
+    /// Whether element `e` is affine while its force is not negative: no effect but
+    /// lift-off.
+    fn piecewise_linear(e: &Element) -> bool {
+        e.effects
+            == Effects {
+                lift_off: e.effects.lift_off,
+                ..Effects::default()
+            }
+    }
+
+    /// The affine model of a piecewise-linear plant (`None` otherwise).
+    fn linear_model(&self) -> Option<LinearModel> {
+        if self.element_states > 0
+            || !self
+                .specimen
+                .elements
+                .iter()
+                .all(|e| Self::piecewise_linear(&e.element))
+        {
+            return None;
+        }
+        let ch = self.channels;
+        let inputs = self.road.len();
+        let affine = match &self.drive {
+            Drive::Actuators(acts) => {
+                if !acts.iter().all(ForceActuator::has_linear_regime) {
+                    return None;
+                }
+                None
+            }
+            Drive::Ideal(law) => {
+                let a = law.affine()?;
+                let square = |m: &[Vec<f64>], cols: usize| {
+                    m.len() == ch
+                        && m.iter()
+                            .all(|r| r.len() == cols && r.iter().all(|v| v.is_finite()))
+                };
+                let ok = a.offset_n.len() == ch
+                    && a.offset_n.iter().all(|v| v.is_finite())
+                    && square(&a.position_n_per_m, ch)
+                    && square(&a.velocity_n_s_per_m, ch)
+                    && square(&a.road_n_per_m, inputs)
+                    && square(&a.road_rate_n_s_per_m, inputs)
+                    && a.lower_bound_n.len() == ch
+                    && a.lower_bound_n
+                        .iter()
+                        .all(|b| !b.is_nan() && *b < f64::INFINITY);
+                if !ok {
+                    return None;
+                }
+                Some(a)
+            }
+        };
+        let states = self.state.len();
+        let cols = states + ch + 2 * inputs + 1;
+        let mut generator = vec![0.0; cols * cols];
+        let mut outputs = vec![0.0; 3 * ch * cols];
+        let mut regime: Vec<Vec<f64>> = Vec::new();
+        let mut tests = Vec::new();
+        let mut xi = vec![0.0; cols];
+        for col in 0..cols {
+            xi.iter_mut().for_each(|v| *v = 0.0);
+            // The constant column: ξ = 0 with the constants; any other: a unit ξ without.
+            let constants = if col + 1 == cols {
+                1.0
+            } else {
+                xi[col] = 1.0;
+                0.0
+            };
+            let (dx, obs, quantities, t) = self.affine_eval(affine.as_ref(), &xi, constants);
+            for (i, v) in dx.iter().enumerate() {
+                generator[i * cols + col] = *v;
+            }
+            for (i, v) in obs.iter().enumerate() {
+                outputs[i * cols + col] = *v;
+            }
+            if regime.is_empty() {
+                regime = vec![vec![0.0; cols]; quantities.len()];
+                tests = t;
+            }
+            for (r, v) in regime.iter_mut().zip(&quantities) {
+                r[col] = *v;
+            }
+        }
+        // The road ramps at its rate: d(road_i)/dt = road_rate_i.
+        for i in 0..inputs {
+            generator[(states + ch + i) * cols + states + ch + inputs + i] = 1.0;
+        }
+        let balance = balance(&mut generator, cols);
+        Some(LinearModel {
+            states,
+            cols,
+            channels: ch,
+            inputs,
+            generator,
+            balance,
+            outputs,
+            regime: regime.into_iter().flatten().collect(),
+            tests,
+            step_s: f64::NAN,
+            step: vec![0.0; states * cols],
+            xi: vec![0.0; cols],
+            in_regime_at: vec![f64::NAN; cols],
+            next: vec![0.0; states],
+            exp: vec![0.0; cols * cols],
+            term: vec![0.0; cols * cols],
+            product: vec![0.0; cols * cols],
         })
+    }
+
+    /// The linear regime's model at `xi` with the constant terms (static forces, preloads,
+    /// interface offsets) times `constants`: the state derivative, the outputs `[y; ẏ; F]`,
+    /// the regime quantities and their tests. Construction only (allocates).
+    fn affine_eval(
+        &self,
+        affine: Option<&AffineInterface>,
+        xi: &[f64],
+        constants: f64,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<RegimeTest>) {
+        let (n, ch, inputs) = (self.n, self.channels, self.road.len());
+        let states = self.state.len();
+        let x = &xi[..states];
+        let demand = &xi[states..states + ch];
+        let w = &xi[states + ch..states + ch + inputs];
+        let w_dot = &xi[states + ch + inputs..states + ch + 2 * inputs];
+        let (q, qd) = (&x[..n], &x[n..2 * n]);
+        let y: Vec<f64> = self
+            .specimen
+            .attachments
+            .iter()
+            .map(|t| dot(t, q))
+            .collect();
+        let y_dot: Vec<f64> = self
+            .specimen
+            .attachments
+            .iter()
+            .map(|t| dot(t, qd))
+            .collect();
+        let mut generalised: Vec<f64> = self
+            .specimen
+            .static_force
+            .iter()
+            .map(|g| constants * g)
+            .collect();
+        let mut quantities = Vec::new();
+        let mut tests = Vec::new();
+        for e in &self.specimen.elements {
+            let el = &e.element;
+            let xe = dot(&e.dof_coefficients, q) + dot(&e.input_coefficients, w);
+            let ve = dot(&e.dof_coefficients, qd) + dot(&e.input_coefficients, w_dot);
+            let f =
+                el.stiffness_n_per_m * xe + el.damping_n_s_per_m * ve + constants * el.preload_n;
+            if el.effects.lift_off {
+                quantities.push(f);
+                tests.push(RegimeTest::NonNegative);
+            }
+            for (g, a) in generalised.iter_mut().zip(&e.dof_coefficients) {
+                *g -= a * f;
+            }
+        }
+        let act_states = &x[2 * n..];
+        let state_of = |j: usize| -> [f64; ACTUATOR_STATES] {
+            let mut s = [0.0; ACTUATOR_STATES];
+            copy(
+                &mut s,
+                &act_states[j * ACTUATOR_STATES..(j + 1) * ACTUATOR_STATES],
+            );
+            s
+        };
+        let mut forces = vec![0.0; ch];
+        match (&self.drive, affine) {
+            (Drive::Actuators(acts), _) => {
+                for (j, a) in acts.iter().enumerate() {
+                    forces[j] = a.piston_force(&state_of(j), y_dot[j]);
+                }
+            }
+            (Drive::Ideal(_), Some(a)) => {
+                for (j, f) in forces.iter_mut().enumerate() {
+                    *f = constants * a.offset_n[j]
+                        + dot(&a.position_n_per_m[j], &y)
+                        + dot(&a.velocity_n_s_per_m[j], &y_dot)
+                        + dot(&a.road_n_per_m[j], w)
+                        + dot(&a.road_rate_n_s_per_m[j], w_dot);
+                    if a.lower_bound_n[j] > f64::NEG_INFINITY {
+                        quantities.push(*f);
+                        tests.push(RegimeTest::Above(a.lower_bound_n[j]));
+                    }
+                }
+            }
+            (Drive::Ideal(_), None) => {}
+        }
+        for (t, f) in self.specimen.attachments.iter().zip(&forces) {
+            for (g, ti) in generalised.iter_mut().zip(t) {
+                *g += ti * f;
+            }
+        }
+        let accel: Vec<f64> = (0..n)
+            .map(|i| dot(row(&self.inv_mass, i, n), &generalised))
+            .collect();
+        let mut dx = vec![0.0; states];
+        dx[..n].copy_from_slice(qd);
+        dx[n..2 * n].copy_from_slice(&accel);
+        if let Drive::Actuators(acts) = &self.drive {
+            for (j, a) in acts.iter().enumerate() {
+                let s = state_of(j);
+                forces[j] -= a.moving_mass_kg() * dot(&self.specimen.attachments[j], &accel);
+                let (u, demanded) = a.valve_signals(&s, demand[j], forces[j], y_dot[j]);
+                quantities.extend([u, demanded, s[crate::actuator::state::LOAD_PRESSURE]]);
+                tests.push(RegimeTest::Actuator(j));
+                let start = 2 * n + j * ACTUATOR_STATES;
+                dx[start..start + ACTUATOR_STATES].copy_from_slice(
+                    &a.linear_regime_derivative(&s, demand[j], forces[j], y_dot[j]),
+                );
+            }
+        }
+        let outputs = y.into_iter().chain(y_dot).chain(forces).collect();
+        (dx, outputs, quantities, tests)
     }
 
     /// The specimen.
@@ -277,6 +953,24 @@ impl Plant {
         &self.state
     }
 
+    /// Whether the plant is piecewise linear, so that it can take exact steps in its
+    /// linear regime (see the module documentation).
+    pub fn has_exact_steps(&self) -> bool {
+        self.linear.is_some()
+    }
+
+    /// Switches the exact linear steps on (the default) or off (plain RK4 at the internal
+    /// step everywhere, e.g. as a reference).
+    pub fn set_exact_steps(&mut self, on: bool) {
+        self.exact_steps = on;
+        self.first_stage_ready = false;
+    }
+
+    /// Internal steps taken so far, exact and RK4.
+    pub fn step_counts(&self) -> StepCounts {
+        self.counts
+    }
+
     /// Puts the plant at rest at `q = 0` with every actuator holding `demand[j]` (N): the
     /// static equilibrium of the specimen description (see [`Specimen`]).
     pub fn rest(&mut self, demand: &[f64]) {
@@ -298,23 +992,144 @@ impl Plant {
     /// also leaves the attachment kinematics in `self.y`, `self.y_dot`, the accelerations in
     /// `self.accel` and the interface forces in `self.forces`.
     fn derivative(&mut self, which: usize, from_tmp: bool, demand: &[f64]) {
+        if self.fixed.is_some() {
+            self.derivative_fixed(which, from_tmp, demand);
+        } else {
+            self.derivative_general(which, from_tmp, demand);
+        }
+    }
+
+    /// [`Plant::derivative`] with the fixed-size kernel.
+    fn derivative_fixed(&mut self, which: usize, from_tmp: bool, demand: &[f64]) {
+        let Some(fx) = &self.fixed else {
+            return;
+        };
+        let n = self.n;
+        let x: &[f64] = if from_tmp { &self.tmp } else { &self.state };
+        let (q, rest) = x.split_at(n.min(x.len()));
+        let (qd, rest) = rest.split_at(n.min(rest.len()));
+        let (zs, act_states) = rest.split_at(self.element_states.min(rest.len()));
+        let Some(out) = self.k.get_mut(which) else {
+            return;
+        };
+        let (q4, qd4) = (pad(q), pad(qd));
+        let (road, road_rate) = (pad(&self.road), pad(&self.road_rate));
+        // Attachment kinematics.
+        for ((y, y_dot), t) in self
+            .y
+            .iter_mut()
+            .zip(self.y_dot.iter_mut())
+            .zip(&fx.attachments)
+        {
+            *y = dot4(t, &q4);
+            *y_dot = dot4(t, &qd4);
+        }
+        // Accelerations: static forces, elements.
+        let mut accel = fx.inv_mass_static;
+        let mut zi = 0;
+        for ((((e, law), a), b), m) in self
+            .specimen
+            .elements
+            .iter()
+            .zip(&self.laws)
+            .zip(&fx.element_dofs)
+            .zip(&fx.element_inputs)
+            .zip(&fx.inv_mass_elements)
+        {
+            let xe = dot4(a, &q4) + dot4(b, &road);
+            let ve = dot4(a, &qd4) + dot4(b, &road_rate);
+            let f = match *law {
+                // The order of `Element::force`: k x, + c v, + preload.
+                ElementLaw::Linear { k, c, preload } => k * xe + c * ve + preload,
+                ElementLaw::General => {
+                    let element = &e.element;
+                    if element.states() > 0 {
+                        let z = zs.get(zi).copied().unwrap_or(0.0);
+                        if let Some(rate) = out.get_mut(2 * n + zi) {
+                            *rate = element.state_rate(xe, ve, z);
+                        }
+                        zi += element.states();
+                        element.force(xe, ve, z)
+                    } else {
+                        element.force(xe, ve, 0.0)
+                    }
+                }
+            };
+            for (acc, mi) in accel.iter_mut().zip(m) {
+                *acc -= mi * f;
+            }
+        }
+        // Interface forces: piston forces (actuators) or the ideal law.
+        match &self.drive {
+            Drive::Actuators(acts) => {
+                for (j, (a, (f, y_dot))) in acts
+                    .iter()
+                    .zip(self.forces.iter_mut().zip(&self.y_dot))
+                    .enumerate()
+                {
+                    *f = a.piston_force(actuator_state(act_states, j), *y_dot);
+                }
+            }
+            Drive::Ideal(law) => {
+                law.forces(
+                    &self.y,
+                    &self.y_dot,
+                    &self.road,
+                    &self.road_rate,
+                    &mut self.forces,
+                );
+            }
+        }
+        for (f, m) in self.forces.iter().zip(&fx.inv_mass_attachments) {
+            for (acc, mi) in accel.iter_mut().zip(m) {
+                *acc += mi * f;
+            }
+        }
+        copy(&mut self.accel, &accel);
+        let len = out.len();
+        let (velocities, rest) = out.split_at_mut(n.min(len));
+        copy(velocities, qd);
+        copy(rest, accel.get(..n).unwrap_or(&[]));
+        // Actuators: load cell (F_p − m_a ÿ) and their own dynamics.
+        if let Drive::Actuators(acts) = &self.drive {
+            let offset = 2 * n + self.element_states;
+            for (j, ((a, t), ((f, y_dot), demand))) in acts
+                .iter()
+                .zip(&fx.attachments)
+                .zip(self.forces.iter_mut().zip(&self.y_dot).zip(demand))
+                .enumerate()
+            {
+                *f -= a.moving_mass_kg() * dot4(t, &accel);
+                let d = a.derivative(actuator_state(act_states, j), *demand, *f, *y_dot);
+                let start = offset + j * ACTUATOR_STATES;
+                if let Some(o) = out.get_mut(start..start + ACTUATOR_STATES) {
+                    copy(o, &d);
+                }
+            }
+        }
+    }
+
+    /// [`Plant::derivative`] for any size.
+    fn derivative_general(&mut self, which: usize, from_tmp: bool, demand: &[f64]) {
         let n = self.n;
         let inputs = self.road.len();
         let x: &[f64] = if from_tmp { &self.tmp } else { &self.state };
-        let (q, rest) = x.split_at(n);
-        let (qd, rest) = rest.split_at(n);
-        let (zs, act_states) = rest.split_at(self.element_states);
-        let out = &mut self.k[which];
+        let (q, rest) = x.split_at(n.min(x.len()));
+        let (qd, rest) = rest.split_at(n.min(rest.len()));
+        let (zs, act_states) = rest.split_at(self.element_states.min(rest.len()));
+        let Some(out) = self.k.get_mut(which) else {
+            return;
+        };
         // Attachment kinematics.
         for (j, (y, y_dot)) in self.y.iter_mut().zip(self.y_dot.iter_mut()).enumerate() {
             let t = row(&self.attachments, j, n);
             *y = dot(t, q);
             *y_dot = dot(t, qd);
         }
-        // Generalised forces: static, elements.
-        copy(&mut self.generalised, &self.specimen.static_force);
+        // Accelerations: static forces, elements (`M⁻¹ a_e` precomputed).
+        copy(&mut self.accel, &self.inv_mass_static);
         let mut zi = 0;
-        for (i, e) in self.specimen.elements.iter().enumerate() {
+        for (i, (e, law)) in self.specimen.elements.iter().zip(&self.laws).enumerate() {
             let a = row(&self.element_dofs, i, n);
             let (mut xe, mut ve) = (dot(a, q), dot(a, qd));
             if inputs > 0 {
@@ -322,19 +1137,29 @@ impl Plant {
                 xe += dot(b, &self.road);
                 ve += dot(b, &self.road_rate);
             }
-            let element = &e.element;
-            let f = if element.states() > 0 {
-                let z = zs.get(zi).copied().unwrap_or(0.0);
-                if let Some(rate) = out.get_mut(2 * n + zi) {
-                    *rate = element.state_rate(xe, ve, z);
+            let f = match *law {
+                // The order of `Element::force`: k x, + c v, + preload.
+                ElementLaw::Linear { k, c, preload } => k * xe + c * ve + preload,
+                ElementLaw::General => {
+                    let element = &e.element;
+                    if element.states() > 0 {
+                        let z = zs.get(zi).copied().unwrap_or(0.0);
+                        if let Some(rate) = out.get_mut(2 * n + zi) {
+                            *rate = element.state_rate(xe, ve, z);
+                        }
+                        zi += element.states();
+                        element.force(xe, ve, z)
+                    } else {
+                        element.force(xe, ve, 0.0)
+                    }
                 }
-                zi += element.states();
-                element.force(xe, ve, z)
-            } else {
-                element.force(xe, ve, 0.0)
             };
-            for (g, ai) in self.generalised.iter_mut().zip(a) {
-                *g -= ai * f;
+            for (acc, m) in self
+                .accel
+                .iter_mut()
+                .zip(row(&self.inv_mass_elements, i, n))
+            {
+                *acc -= m * f;
             }
         }
         // Interface forces: piston forces (actuators) or the ideal law.
@@ -359,16 +1184,16 @@ impl Plant {
             }
         }
         for (j, f) in self.forces.iter().enumerate() {
-            let t = row(&self.attachments, j, n);
-            for (g, ti) in self.generalised.iter_mut().zip(t) {
-                *g += ti * f;
+            for (acc, m) in self
+                .accel
+                .iter_mut()
+                .zip(row(&self.inv_mass_attachments, j, n))
+            {
+                *acc += m * f;
             }
         }
-        // Accelerations.
-        for (i, a) in self.accel.iter_mut().enumerate() {
-            *a = dot(row(&self.inv_mass, i, n), &self.generalised);
-        }
-        let (velocities, rest) = out.split_at_mut(n);
+        let len = out.len();
+        let (velocities, rest) = out.split_at_mut(n.min(len));
         copy(velocities, qd);
         copy(rest, &self.accel);
         // Actuators: load cell (F_p − m_a ÿ) and their own dynamics.
@@ -403,7 +1228,9 @@ impl Plant {
 
     /// Advances by `duration_s` (s) in RK4 steps of at most the internal step, with the
     /// actuator demands `demand` (N per channel; ignored by an ideal interface) held and the
-    /// road ramping from `road_from` to `road_to` (m per input).
+    /// road ramping from `road_from` to `road_to` (m per input). A piecewise-linear plant
+    /// takes the same steps exactly while in its linear regime (see the module
+    /// documentation).
     ///
     /// When [`Plant::sample`] was called last with the same demand, `road_from` and the
     /// ramp's rate `(road_to − road_from) / duration_s` (m/s), the first RK4 stage is the
@@ -411,38 +1238,80 @@ impl Plant {
     pub fn advance(&mut self, duration_s: f64, demand: &[f64], road_from: &[f64], road_to: &[f64]) {
         let steps = (duration_s / self.internal_step_s - 1e-9).ceil().max(1.0) as usize;
         let h = duration_s / steps as f64;
+        let mut exact = false;
+        if self.exact_steps {
+            if let Some(model) = self.linear.as_mut() {
+                exact = model.step_s == h || model.discretise(h);
+            }
+        }
         for s in 0..steps {
-            let f0 = s as f64 / steps as f64;
-            let fm = (s as f64 + 0.5) / steps as f64;
-            let f1 = (s as f64 + 1.0) / steps as f64;
-            self.set_road(road_from, road_to, f0, duration_s);
-            let reuse = s == 0
-                && self.first_stage_ready
-                && self.sampled_demand == demand
-                && self.sampled_road == self.road
-                && self.sampled_road_rate == self.road_rate;
-            if !reuse {
-                self.derivative(0, false, demand);
+            if exact {
+                if let Some(model) = self.linear.as_mut() {
+                    let actuators: &[ForceActuator] = match &self.drive {
+                        Drive::Actuators(a) => a,
+                        Drive::Ideal(_) => &[],
+                    };
+                    let fractions = (s as f64 / steps as f64, (s as f64 + 1.0) / steps as f64);
+                    if model.step(
+                        &mut self.state,
+                        actuators,
+                        demand,
+                        road_from,
+                        road_to,
+                        fractions,
+                        duration_s,
+                    ) {
+                        self.counts.exact += 1;
+                        continue;
+                    }
+                }
             }
-            self.set_road(road_from, road_to, fm, duration_s);
-            let half = 0.5 * h;
-            stage(&mut self.tmp, &self.state, &self.k[0], half);
-            self.derivative(1, true, demand);
-            stage(&mut self.tmp, &self.state, &self.k[1], half);
-            self.derivative(2, true, demand);
-            self.set_road(road_from, road_to, f1, duration_s);
-            stage(&mut self.tmp, &self.state, &self.k[2], h);
-            self.derivative(3, true, demand);
-            let sixth = h / 6.0;
-            let [k0, k1, k2, k3] = &self.k;
-            for ((x, a), ((b, c), d)) in
-                self.state.iter_mut().zip(k0).zip(k1.iter().zip(k2).zip(k3))
-            {
-                *x += sixth * (a + 2.0 * b + 2.0 * c + d);
-            }
+            self.rk4_step(s, steps, h, demand, road_from, road_to, duration_s);
         }
         self.first_stage_ready = false;
         self.time_s += duration_s;
+    }
+
+    /// RK4 step `s` of `steps` (each `h`, s) of [`Plant::advance`].
+    #[allow(clippy::too_many_arguments)]
+    fn rk4_step(
+        &mut self,
+        s: usize,
+        steps: usize,
+        h: f64,
+        demand: &[f64],
+        road_from: &[f64],
+        road_to: &[f64],
+        duration_s: f64,
+    ) {
+        let f0 = s as f64 / steps as f64;
+        let fm = (s as f64 + 0.5) / steps as f64;
+        let f1 = (s as f64 + 1.0) / steps as f64;
+        self.set_road(road_from, road_to, f0, duration_s);
+        let reuse = s == 0
+            && self.first_stage_ready
+            && self.sampled_demand == demand
+            && self.sampled_road == self.road
+            && self.sampled_road_rate == self.road_rate;
+        if !reuse {
+            self.derivative(0, false, demand);
+        }
+        self.set_road(road_from, road_to, fm, duration_s);
+        let half = 0.5 * h;
+        stage(&mut self.tmp, &self.state, &self.k[0], half);
+        self.derivative(1, true, demand);
+        stage(&mut self.tmp, &self.state, &self.k[1], half);
+        self.derivative(2, true, demand);
+        self.set_road(road_from, road_to, f1, duration_s);
+        stage(&mut self.tmp, &self.state, &self.k[2], h);
+        self.derivative(3, true, demand);
+        let sixth = h / 6.0;
+        let [k0, k1, k2, k3] = &self.k;
+        for ((x, a), ((b, c), d)) in self.state.iter_mut().zip(k0).zip(k1.iter().zip(k2).zip(k3)) {
+            *x += sixth * (a + 2.0 * b + 2.0 * c + d);
+        }
+        self.first_stage_ready = false;
+        self.counts.rk4 += 1;
     }
 
     /// Evaluates the plant's signals now, for demands `demand` (N; they set the load-cell
@@ -450,6 +1319,31 @@ impl Plant {
     /// them with [`Plant::position`], [`Plant::velocity`] and [`Plant::force`]. Allocates
     /// nothing.
     pub fn sample(&mut self, demand: &[f64], road: &[f64], road_rate: &[f64]) {
+        if self.exact_steps {
+            if let Some(model) = self.linear.as_mut() {
+                let actuators: &[ForceActuator] = match &self.drive {
+                    Drive::Actuators(a) => a,
+                    Drive::Ideal(_) => &[],
+                };
+                model.fill(&self.state, demand, road, road_rate);
+                if model.in_regime(actuators) {
+                    let (ch, cols) = (self.channels, model.cols);
+                    for (j, ((y, y_dot), f)) in self
+                        .y
+                        .iter_mut()
+                        .zip(self.y_dot.iter_mut())
+                        .zip(self.forces.iter_mut())
+                        .enumerate()
+                    {
+                        *y = dot(row(&model.outputs, j, cols), &model.xi);
+                        *y_dot = dot(row(&model.outputs, ch + j, cols), &model.xi);
+                        *f = dot(row(&model.outputs, 2 * ch + j, cols), &model.xi);
+                    }
+                    self.first_stage_ready = false;
+                    return;
+                }
+            }
+        }
         copy(&mut self.road, road);
         copy(&mut self.road_rate, road_rate);
         self.derivative(0, false, demand);

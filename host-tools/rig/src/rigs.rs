@@ -6,7 +6,7 @@
 use crate::actuator::ForceActuator;
 use crate::effects::{Effects, Element};
 use crate::harness::RigPart;
-use crate::plant::{IdealInterface, Plant};
+use crate::plant::{AffineInterface, IdealInterface, Plant};
 use crate::specimen::{Specimen, SpecimenError};
 use mil_analysis::examples::{AeroExample, TyreExample};
 use model_core::aero::MAP_POINTS;
@@ -25,6 +25,47 @@ pub struct IdealTyre {
 }
 
 impl IdealInterface for IdealTyre {
+    /// The affine form while every tyre is linear apart from lift-off (tyre `j` between
+    /// road input `j` and attachment `j`): `F_j = F_0 + k_t (w_j − y_j) + c_t (ẇ_j − ẏ_j)`,
+    /// valid while `F_j > 0` with lift-off. `None` with other effects.
+    fn affine(&self) -> Option<AffineInterface> {
+        let n = self.tyres.len();
+        let diagonal = |value: &dyn Fn(&Element) -> f64| -> Vec<Vec<f64>> {
+            (0..n)
+                .map(|j| {
+                    (0..n)
+                        .map(|i| if i == j { value(&self.tyres[j]) } else { 0.0 })
+                        .collect()
+                })
+                .collect()
+        };
+        let affine = self.tyres.iter().all(|t| {
+            t.effects
+                == Effects {
+                    lift_off: t.effects.lift_off,
+                    ..Effects::default()
+                }
+        });
+        affine.then(|| AffineInterface {
+            offset_n: self.tyres.iter().map(|t| t.preload_n).collect(),
+            position_n_per_m: diagonal(&|t| -t.stiffness_n_per_m),
+            velocity_n_s_per_m: diagonal(&|t| -t.damping_n_s_per_m),
+            road_n_per_m: diagonal(&|t| t.stiffness_n_per_m),
+            road_rate_n_s_per_m: diagonal(&|t| t.damping_n_s_per_m),
+            lower_bound_n: self
+                .tyres
+                .iter()
+                .map(|t| {
+                    if t.effects.lift_off {
+                        0.0
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                })
+                .collect(),
+        })
+    }
+
     fn forces(
         &self,
         y: &[f64],
