@@ -36,6 +36,10 @@ pub const AERO_RIDE_HEIGHT: Range = Range::new(-1.0, 1.0);
 pub const AERO_MAP_FORCE: Range = Range::new(-1.0e6, 1.0e6);
 /// Largest speed accepted as input (m/s); faster is treated as an invalid input.
 pub const AERO_MAX_SPEED: f32 = 150.0;
+/// Largest axle displacement accepted as input (m, either sign, from the static ride
+/// height): beyond a four-poster's travel, so a larger value is a corrupt or misscaled
+/// frame and latches an invalid-input fault.
+pub const AERO_MAX_DISPLACEMENT: f32 = 1.0;
 
 /// Ride-height map: down force per axle over a grid of front and rear ride heights.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -306,7 +310,12 @@ impl Model<2> for AeroModel {
     fn reset(&mut self, _prepared: &Self::Prepared, _input: &ModelInput<2>) {}
 
     fn input_valid(input: &ModelInput<2>) -> bool {
-        input.is_finite() && input.speed.abs() <= AERO_MAX_SPEED
+        input.is_finite()
+            && input.speed.abs() <= AERO_MAX_SPEED
+            && input
+                .position
+                .iter()
+                .all(|v| v.abs() <= AERO_MAX_DISPLACEMENT)
     }
 
     #[inline]

@@ -17,6 +17,10 @@ use crate::controller::{Model, ModelInput};
 use crate::params::{Field, ParamError, Range};
 use crate::velocity::{VelocityEstimator, VelocityFilterCoefficients, VELOCITY_CUTOFF};
 
+/// Largest hub position and road displacement accepted as input (m, either sign, from the
+/// static position): far beyond any hub rig's travel, so a larger value is a corrupt or
+/// misscaled frame and latches an invalid-input fault.
+pub const TYRE_MAX_DISPLACEMENT: f32 = 1.0;
 /// Allowed tyre radial stiffness (N/m).
 pub const TYRE_STIFFNESS: Range = Range::new(0.0, 1.0e8);
 /// Allowed tyre radial damping (N s/m).
@@ -124,6 +128,17 @@ impl<const CH: usize> Model<CH> for TyreModel<CH> {
 
     fn reset(&mut self, _prepared: &Self::Prepared, _input: &ModelInput<CH>) {
         *self = Self::new();
+    }
+
+    /// Finite, and every hub position and road displacement within
+    /// ±[`TYRE_MAX_DISPLACEMENT`] (the force and speed are not used, only checked finite).
+    fn input_valid(input: &ModelInput<CH>) -> bool {
+        input.is_finite()
+            && input
+                .position
+                .iter()
+                .chain(&input.road)
+                .all(|v| v.abs() <= TYRE_MAX_DISPLACEMENT)
     }
 
     #[inline]

@@ -96,6 +96,57 @@ fn nan_input_latches_fault_and_ramps_to_safe_demand() {
     assert_eq!(c.mode(), Mode::Running);
 }
 
+/// A finite but impossible displacement (a corrupted or misscaled CAN frame: 2 km) latches
+/// the invalid-input fault like a NaN, for the tyre (hub position, road) and the aero model
+/// (axle position); values at the bound still run.
+#[test]
+fn out_of_range_displacement_latches_fault() {
+    for (field, value) in [("position", 1.0f32), ("position", 2.0e3), ("road", -1.5)] {
+        let mut c = Controller::<TyreModel<4>, 4>::with_params(&tyre_params(), DT).unwrap();
+        c.start();
+        for _ in 0..10 {
+            c.step(&road(0.0));
+        }
+        let mut input = road(0.0);
+        match field {
+            "position" => input.position[1] = value,
+            _ => input.road[1] = value,
+        }
+        let d = c.step(&input);
+        assert!(d.iter().all(|v| v.is_finite()));
+        if value.abs() <= model_core::tyre::TYRE_MAX_DISPLACEMENT {
+            assert_eq!(c.mode(), Mode::Running, "{field} {value}");
+        } else {
+            assert_eq!(c.mode(), Mode::Fault, "{field} {value}");
+            assert_eq!(c.status().fault, fault::INVALID_INPUT);
+            assert_ne!(c.status().invalid_input, 0);
+        }
+    }
+    let aero = ControllerParams {
+        model: AeroParams::PAPER,
+        filter: [CascadeCoefficients::IDENTITY; 2],
+        limits: [DemandLimits {
+            min: -2.0e4,
+            max: 2.0e3,
+            rate: 1.0e9,
+        }; 2],
+        safe_demand: [0.0; 2],
+        safe_ramp_rate: [1.0e5; 2],
+    };
+    let mut c = Controller::<AeroModel, 2>::with_params(&aero, DT).unwrap();
+    c.start();
+    let mut input = ModelInput {
+        speed: 50.0,
+        ..ModelInput::default()
+    };
+    c.step(&input);
+    assert_eq!(c.mode(), Mode::Running);
+    input.position[0] = -2.0e3;
+    c.step(&input);
+    assert_eq!(c.mode(), Mode::Fault);
+    assert_eq!(c.status().fault, fault::INVALID_INPUT);
+}
+
 #[test]
 fn amplitude_limit_clamps_and_reports() {
     let mut p = tyre_params();

@@ -527,8 +527,9 @@ fn largest_step(h: &Histories) -> f64 {
 ///    wrong positions are plausible, the controller cannot tell, the demand jumps (up to the
 ///    amplitude and rate limits) and the rig follows: no fault, but a wrong force on the
 ///    specimen; the limits are the only protection;
-/// 4. the same in 32 bit (±2.1 km): physically impossible positions are not rejected
-///    either (no range check in the tyre), the demand is clamped at the amplitude limits;
+/// 4. the same in 32 bit (±2.1 km): physically impossible positions (beyond model-core's
+///    `TYRE_MAX_DISPLACEMENT`, 1 m) latch `INVALID_INPUT` and the demand ramps to the safe
+///    demand at the safe ramp rate;
 /// 5. demand link: nobody checks it (the rig's servo controller takes any value): the
 ///    controller never sees the fault and the load cell is kicked by kilonewtons.
 ///
@@ -617,35 +618,56 @@ fn corrupted_frames() {
     assert_healthy(&h, &TIGHT);
     assert!(same(&h, &clean), "corrupted forces changed the run");
 
-    // 3, 4. Position link: plausible and impossible wrong positions, undetected.
+    // 3. Position link, plausible wrong positions: undetected.
     let p = 0.002;
-    for (bits, range) in [(16u8, "+-32.8 mm"), (32, "+-2.1 km")] {
-        let (h, stats) = simulate(&road, &corrupted(0, 1e-6, bits, p, 5));
-        let amplitude = h.status.iter().filter(|s| s.amplitude_limited != 0).count();
-        let rate = h.status.iter().filter(|s| s.rate_limited != 0).count();
-        let demand_error = max_abs((0..h.len()).map(|k| h.demand[0][k] - clean.demand[0][k]));
-        let force_error = max_abs((0..h.len()).map(|k| h.mil_force[0][k] - clean.mil_force[0][k]));
-        eprintln!(
-            "position link, 1 um / {bits} bit ({range}), p = {p}: {stats:?}; no fault; \
-             {amplitude} samples amplitude-limited, {rate} rate-limited; demand off by up to \
-             {demand_error:.0} N, load cell by {force_error:.0} N; largest step {:.0} N",
-            largest_step(&h)
-        );
-        assert!(stats.corrupted > 0);
-        assert_healthy(&h, &TIGHT);
-        assert!(largest_step(&h) <= rate_step * (1.0 + 1e-6));
-        assert!(rate > 0, "the corrupted positions hit the rate limit");
+    let (h, stats) = simulate(&road, &corrupted(0, 1e-6, 16, p, 5));
+    let amplitude = h.status.iter().filter(|s| s.amplitude_limited != 0).count();
+    let rate = h.status.iter().filter(|s| s.rate_limited != 0).count();
+    let demand_error = max_abs((0..h.len()).map(|k| h.demand[0][k] - clean.demand[0][k]));
+    let force_error = max_abs((0..h.len()).map(|k| h.mil_force[0][k] - clean.mil_force[0][k]));
+    eprintln!(
+        "position link, 1 um / 16 bit (+-32.8 mm), p = {p}: {stats:?}; no fault; \
+         {amplitude} samples amplitude-limited, {rate} rate-limited; demand off by up to \
+         {demand_error:.0} N, load cell by {force_error:.0} N; largest step {:.0} N",
+        largest_step(&h)
+    );
+    assert!(stats.corrupted > 0);
+    assert_healthy(&h, &TIGHT);
+    assert!(largest_step(&h) <= rate_step * (1.0 + 1e-6));
+    assert!(rate > 0, "the corrupted positions hit the rate limit");
+    assert!(
+        demand_error > 500.0 && force_error > 50.0,
+        "the wrong values reach the rig"
+    );
+
+    // 4. Position link, impossible positions: the board latches the fault, ramps to safe.
+    let (h, stats) = simulate(&road, &corrupted(0, 1e-6, 32, p, 5));
+    let k0 = h
+        .status
+        .iter()
+        .position(|s| s.mode == Mode::Fault)
+        .expect("an impossible position must latch a fault");
+    eprintln!(
+        "position link, 1 um / 32 bit (+-2.1 km), p = {p}: {stats:?}; fault at sample {k0}: \
+         {:?}; demand {:.1} N -> safe {safe:.1} N",
+        h.status[k0],
+        h.demand[0][k0 - 1]
+    );
+    assert_eq!(h.status[k0].fault, model_core::fault::INVALID_INPUT);
+    assert!(h.status[k0..].iter().all(|s| s.mode == Mode::Fault));
+    for k in k0..h.len() {
+        let d = h.demand[0][k];
+        assert!(d.is_finite());
         assert!(
-            demand_error > 500.0 && force_error > 50.0,
-            "the wrong values reach the rig"
+            (d - h.demand[0][k - 1]).abs() <= safe_step * (1.0 + 1e-4) + 1e-3,
+            "{k}"
         );
-        if bits == 32 {
-            assert!(
-                amplitude > 0,
-                "impossible positions drive the demand to its limits"
-            );
-        }
+        assert!(
+            (d - safe).abs() <= (h.demand[0][k - 1] - safe).abs() + 1e-3,
+            "{k}"
+        );
     }
+    assert!((h.demand[0][h.len() - 1] - safe).abs() < 1e-3);
 
     // 5. Demand link: not the board's to check.
     let (h, stats) = simulate(&road, &corrupted(2, 0.0, 32, p, 5));
