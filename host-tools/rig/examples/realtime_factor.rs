@@ -2,18 +2,17 @@
 //! actuator, model-core's tyre controller step, the emulated system alongside) at a 5 kHz
 //! control rate, simulated seconds per wall-clock second. Target: at least 1000 on one core.
 //!
-//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds> <internal_step_s> [rk4|affine-tyre]]`
+//! `cargo run --release -p mil-rig --example realtime_factor [-- <rate_hz> <seconds> <internal_step_s> [rk4]]`
 //!
 //! With `rk4` the plants take plain RK4 steps only ([`mil_rig::plant::Plant::set_exact_steps`]
-//! off). With `affine-tyre` the emulated plant's tyre is a local copy of the rigs' ideal
-//! tyre that also declares its affine form ([`IdealInterface::affine`]), so that the emulated
-//! plant takes exact steps too (what `IdealTyre` would give with that method). After the closed-loop run, each plant is replayed alone on the run's demand and road
+//! off); by default both plants take exact steps while they are affine (the MiL rig's
+//! actuator and quarter car; the emulated tyre while it is on the road). After the
+//! closed-loop run, each plant is replayed alone on the run's demand and road
 //! (`sample` then `advance` per control step, as the harness calls them) to split the cost.
 
-use mil_rig::effects::{Effects, Element};
 use mil_rig::harness::{run, Histories, Instrumentation};
-use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
-use mil_rig::rigs::{ideal_tyre, paper_tyre_part, tyre_controller, tyre_input};
+use mil_rig::plant::Plant;
+use mil_rig::rigs::{paper_tyre_part, tyre_controller, tyre_input};
 use model_core::{DemandLimits, TyreParams};
 use std::time::Instant;
 
@@ -43,47 +42,6 @@ fn replay(plant: &mut Plant, h: &Histories, fs: f64, road: bool) -> f64 {
     started.elapsed().as_secs_f64()
 }
 
-/// The rigs' ideal tyre on one channel, `F = F_0 + k_t (w − y) + c_t (ẇ − ẏ)` with its
-/// lift-off, declaring its affine form.
-struct AffineTyre(Element);
-
-impl IdealInterface for AffineTyre {
-    fn forces(
-        &self,
-        y: &[f64],
-        y_dot: &[f64],
-        road: &[f64],
-        road_rate: &[f64],
-        forces: &mut [f64],
-    ) {
-        let x = road.first().copied().unwrap_or(0.0) - y.first().copied().unwrap_or(0.0);
-        let v = road_rate.first().copied().unwrap_or(0.0) - y_dot.first().copied().unwrap_or(0.0);
-        if let Some(f) = forces.first_mut() {
-            *f = self.0.force(x, v, 0.0);
-        }
-    }
-
-    fn affine(&self) -> Option<AffineInterface> {
-        let (k, c) = (self.0.stiffness_n_per_m, self.0.damping_n_s_per_m);
-        let only_lift_off = Effects {
-            lift_off: self.0.effects.lift_off,
-            ..Effects::default()
-        };
-        (self.0.effects == only_lift_off).then(|| AffineInterface {
-            offset_n: vec![self.0.preload_n],
-            position_n_per_m: vec![vec![-k]],
-            velocity_n_s_per_m: vec![vec![-c]],
-            road_n_per_m: vec![vec![k]],
-            road_rate_n_s_per_m: vec![vec![c]],
-            lower_bound_n: vec![if self.0.effects.lift_off {
-                0.0
-            } else {
-                f64::NEG_INFINITY
-            }],
-        })
-    }
-}
-
 fn main() {
     let mut args = std::env::args().skip(1);
     let fs: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(5000.0);
@@ -95,15 +53,6 @@ fn main() {
     let mode = args.next();
     let exact = mode.as_deref() != Some("rk4");
     let mut parts = vec![paper_tyre_part(internal_step_s).expect("rig")];
-    if mode.as_deref() == Some("affine-tyre") {
-        let specimen = parts[0].emulated.specimen().clone();
-        parts[0].emulated = Plant::with_ideal_interface(
-            specimen,
-            Box::new(AffineTyre(ideal_tyre(&TyreParams::PAPER))),
-            internal_step_s,
-        )
-        .expect("emulated plant");
-    }
     parts[0].mil.set_exact_steps(exact);
     parts[0].emulated.set_exact_steps(exact);
     let n = (fs * seconds) as usize;
@@ -138,7 +87,6 @@ fn main() {
         internal_step_s * 1e6,
         match mode.as_deref() {
             Some("rk4") => " (plain RK4)",
-            Some("affine-tyre") => " (affine emulated tyre)",
             _ => "",
         },
         seconds / wall,

@@ -13,8 +13,8 @@ use mil_identify::band_limited_noise;
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
 use mil_rig::effects::{Effects, Element};
 use mil_rig::harness::{run, Histories, Instrumentation};
-use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
-use mil_rig::rigs::{ideal_tyre, paper_tyre_part, tyre_controller, tyre_input};
+use mil_rig::plant::Plant;
+use mil_rig::rigs::{ideal_tyre, paper_tyre_part, tyre_controller, tyre_input, IdealTyre};
 use mil_rig::specimen::Specimen;
 use model_core::{DemandLimits, TyreParams};
 
@@ -96,44 +96,7 @@ fn tyre_rig_at_5_khz_against_a_2_us_reference() {
     }
 }
 
-/// An ideal tyre that declares its affine form (what the rigs' `IdealTyre` could do):
-/// `F = F_0 + k_t (w − y) + c_t (ẇ − ẏ)`, clamped at 0 with lift-off.
-struct AffineTyre {
-    tyre: Element,
-}
-
-impl IdealInterface for AffineTyre {
-    fn forces(
-        &self,
-        y: &[f64],
-        y_dot: &[f64],
-        road: &[f64],
-        road_rate: &[f64],
-        forces: &mut [f64],
-    ) {
-        forces[0] = self
-            .tyre
-            .force(road[0] - y[0], road_rate[0] - y_dot[0], 0.0);
-    }
-
-    fn affine(&self) -> Option<AffineInterface> {
-        let (k, c) = (self.tyre.stiffness_n_per_m, self.tyre.damping_n_s_per_m);
-        Some(AffineInterface {
-            offset_n: vec![self.tyre.preload_n],
-            position_n_per_m: vec![vec![-k]],
-            velocity_n_s_per_m: vec![vec![-c]],
-            road_n_per_m: vec![vec![k]],
-            road_rate_n_s_per_m: vec![vec![c]],
-            lower_bound_n: vec![if self.tyre.effects.lift_off {
-                0.0
-            } else {
-                f64::NEG_INFINITY
-            }],
-        })
-    }
-}
-
-/// The emulated quarter car on the affine tyre.
+/// The emulated quarter car on the rigs' ideal tyre (affine while on the road).
 fn emulated_quarter_car(tyre: Element, internal_step_s: f64) -> Plant {
     let car = TyreExample::default();
     let mut specimen = Specimen::quarter_car(&car, Specimen::quarter_car_suspension(&car));
@@ -141,7 +104,12 @@ fn emulated_quarter_car(tyre: Element, internal_step_s: f64) -> Plant {
     for e in &mut specimen.elements {
         e.input_coefficients = vec![0.0];
     }
-    Plant::with_ideal_interface(specimen, Box::new(AffineTyre { tyre }), internal_step_s).unwrap()
+    Plant::with_ideal_interface(
+        specimen,
+        Box::new(IdealTyre { tyres: vec![tyre] }),
+        internal_step_s,
+    )
+    .unwrap()
 }
 
 /// Drives `plant` open loop at `fs` (Hz) as the harness does (sample, then advance over
