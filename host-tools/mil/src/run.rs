@@ -138,7 +138,9 @@ pub fn run(config: &Config, mut progress: impl FnMut(f64)) -> Result<RunOutput> 
     })
 }
 
-fn to_array<const CH: usize>(v: &[f64]) -> [f32; CH] {
+/// The first `CH` values of `v` as f32 (zeros where `v` is shorter): a controller input
+/// field from host doubles.
+pub(crate) fn to_array<const CH: usize>(v: &[f64]) -> [f32; CH] {
     let mut a = [0.0; CH];
     for (o, x) in a.iter_mut().zip(v) {
         *o = *x as f32;

@@ -11,6 +11,7 @@
 //! `[compare] analysis`, against `mil analyze`'s prediction.
 
 use crate::config::{Config, ModelKind, Validated};
+use crate::run::to_array;
 use anyhow::{bail, Context, Result};
 use mil_analysis::analyze::Signal;
 use mil_analysis::examples::{AeroExample, TyreExample};
@@ -241,9 +242,9 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
                 &road,
                 &initial,
                 |position, force, road, _| ModelInput {
-                    position: to_f32(position),
-                    force: to_f32(force),
-                    road: to_f32(road),
+                    position: to_array(position),
+                    force: to_array(force),
+                    road: to_array(road),
                     speed: 0.0,
                 },
                 progress,
@@ -372,14 +373,6 @@ fn columns(rows: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> {
                 .collect()
         })
         .collect()
-}
-
-fn to_f32<const CH: usize>(v: &[f64]) -> [f32; CH] {
-    let mut a = [0.0; CH];
-    for (o, x) in a.iter_mut().zip(v) {
-        *o = *x as f32;
-    }
-    a
 }
 
 /// The response the run estimates, per model: tyre, channel 0's interface force per road

@@ -1038,48 +1038,21 @@ impl Plant {
         {
             let xe = dot4(a, &q4) + dot4(b, &road);
             let ve = dot4(a, &qd4) + dot4(b, &road_rate);
-            let f = match *law {
-                // The order of `Element::force`: k x, + c v, + preload.
-                ElementLaw::Linear { k, c, preload } => k * xe + c * ve + preload,
-                ElementLaw::General => {
-                    let element = &e.element;
-                    if element.states() > 0 {
-                        let z = zs.get(zi).copied().unwrap_or(0.0);
-                        if let Some(rate) = out.get_mut(2 * n + zi) {
-                            *rate = element.state_rate(xe, ve, z);
-                        }
-                        zi += element.states();
-                        element.force(xe, ve, z)
-                    } else {
-                        element.force(xe, ve, 0.0)
-                    }
-                }
-            };
+            let f = element_force(*law, &e.element, xe, ve, zs, &mut zi, out, 2 * n);
             for (acc, mi) in accel.iter_mut().zip(m) {
                 *acc -= mi * f;
             }
         }
         // Interface forces: piston forces (actuators) or the ideal law.
-        match &self.drive {
-            Drive::Actuators(acts) => {
-                for (j, (a, (f, y_dot))) in acts
-                    .iter()
-                    .zip(self.forces.iter_mut().zip(&self.y_dot))
-                    .enumerate()
-                {
-                    *f = a.piston_force(actuator_state(act_states, j), *y_dot);
-                }
-            }
-            Drive::Ideal(law) => {
-                law.forces(
-                    &self.y,
-                    &self.y_dot,
-                    &self.road,
-                    &self.road_rate,
-                    &mut self.forces,
-                );
-            }
-        }
+        interface_forces(
+            &self.drive,
+            act_states,
+            &self.y,
+            &self.y_dot,
+            &self.road,
+            &self.road_rate,
+            &mut self.forces,
+        );
         for (f, m) in self.forces.iter().zip(&fx.inv_mass_attachments) {
             for (acc, mi) in accel.iter_mut().zip(m) {
                 *acc += mi * f;
@@ -1137,23 +1110,7 @@ impl Plant {
                 xe += dot(b, &self.road);
                 ve += dot(b, &self.road_rate);
             }
-            let f = match *law {
-                // The order of `Element::force`: k x, + c v, + preload.
-                ElementLaw::Linear { k, c, preload } => k * xe + c * ve + preload,
-                ElementLaw::General => {
-                    let element = &e.element;
-                    if element.states() > 0 {
-                        let z = zs.get(zi).copied().unwrap_or(0.0);
-                        if let Some(rate) = out.get_mut(2 * n + zi) {
-                            *rate = element.state_rate(xe, ve, z);
-                        }
-                        zi += element.states();
-                        element.force(xe, ve, z)
-                    } else {
-                        element.force(xe, ve, 0.0)
-                    }
-                }
-            };
+            let f = element_force(*law, &e.element, xe, ve, zs, &mut zi, out, 2 * n);
             for (acc, m) in self
                 .accel
                 .iter_mut()
@@ -1163,26 +1120,15 @@ impl Plant {
             }
         }
         // Interface forces: piston forces (actuators) or the ideal law.
-        match &self.drive {
-            Drive::Actuators(acts) => {
-                for (j, (a, (f, y_dot))) in acts
-                    .iter()
-                    .zip(self.forces.iter_mut().zip(&self.y_dot))
-                    .enumerate()
-                {
-                    *f = a.piston_force(actuator_state(act_states, j), *y_dot);
-                }
-            }
-            Drive::Ideal(law) => {
-                law.forces(
-                    &self.y,
-                    &self.y_dot,
-                    &self.road,
-                    &self.road_rate,
-                    &mut self.forces,
-                );
-            }
-        }
+        interface_forces(
+            &self.drive,
+            act_states,
+            &self.y,
+            &self.y_dot,
+            &self.road,
+            &self.road_rate,
+            &mut self.forces,
+        );
         for (j, f) in self.forces.iter().enumerate() {
             for (acc, m) in self
                 .accel
@@ -1390,6 +1336,61 @@ impl Plant {
             load_pressure: pick(crate::actuator::state::LOAD_PRESSURE),
             spool: pick(crate::actuator::state::SPOOL),
         }
+    }
+}
+
+/// Force (N) of one element at compression `xe` (m) and rate `ve` (m/s) by its law; an
+/// element with an internal state takes it from `zs[*zi]`, writes its rate into
+/// `out[states_at + *zi]` and advances `*zi`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn element_force(
+    law: ElementLaw,
+    element: &Element,
+    xe: f64,
+    ve: f64,
+    zs: &[f64],
+    zi: &mut usize,
+    out: &mut [f64],
+    states_at: usize,
+) -> f64 {
+    match law {
+        // The order of `Element::force`: k x, + c v, + preload.
+        ElementLaw::Linear { k, c, preload } => k * xe + c * ve + preload,
+        ElementLaw::General => {
+            if element.states() > 0 {
+                let z = zs.get(*zi).copied().unwrap_or(0.0);
+                if let Some(rate) = out.get_mut(states_at + *zi) {
+                    *rate = element.state_rate(xe, ve, z);
+                }
+                *zi += element.states();
+                element.force(xe, ve, z)
+            } else {
+                element.force(xe, ve, 0.0)
+            }
+        }
+    }
+}
+
+/// The interface forces (N) into `forces`: the actuators' piston forces from their states
+/// `act_states` and rod velocities, or the ideal interface's law.
+#[inline]
+fn interface_forces(
+    drive: &Drive,
+    act_states: &[f64],
+    y: &[f64],
+    y_dot: &[f64],
+    road: &[f64],
+    road_rate: &[f64],
+    forces: &mut [f64],
+) {
+    match drive {
+        Drive::Actuators(acts) => {
+            for (j, (a, (f, v))) in acts.iter().zip(forces.iter_mut().zip(y_dot)).enumerate() {
+                *f = a.piston_force(actuator_state(act_states, j), *v);
+            }
+        }
+        Drive::Ideal(law) => law.forces(y, y_dot, road, road_rate, forces),
     }
 }
 
