@@ -264,8 +264,12 @@ impl ForceActuator {
         }
         let p = &self.params;
         let drop = (p.supply_pressure_pa - demanded.signum() * load_pressure_pa).max(0.0);
-        let root = (drop * self.inverse_supply_pressure).sqrt();
-        u.abs() <= self.spool_limit && root >= 1e-3 && demanded.abs() <= self.spool_limit * root
+        // `root ≥ 1e-3 ∧ |demanded| ≤ limit·root` with `root = √(drop/P_s)`, squared: the
+        // same set without a square root (this is tested every internal step).
+        let ratio = drop * self.inverse_supply_pressure;
+        u.abs() <= self.spool_limit
+            && ratio >= 1e-6
+            && demanded * demanded <= self.spool_limit * self.spool_limit * ratio
     }
 
     /// State derivatives in the linear regime (the affine branches of

@@ -157,6 +157,17 @@ fn dot4(a: &Fixed4, b: &Fixed4) -> f64 {
     (a[0] * b[0] + a[1] * b[1]) + (a[2] * b[2] + a[3] * b[3])
 }
 
+/// How [`LinearModel::step`] tests the start of a step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum StartTest {
+    /// Known to be in the linear regime (the end of the last exact step).
+    Known,
+    /// The last sample's point with other road entries: tested from the sample's values.
+    FromSample,
+    /// Tested in full.
+    Full,
+}
+
 /// One test of the linear regime on the regime quantities (in order).
 #[derive(Clone, Copy, Debug)]
 enum RegimeTest {
@@ -168,9 +179,68 @@ enum RegimeTest {
     Actuator(usize),
 }
 
+/// Largest extended vector `ξ` (states + channels + 2 road inputs + 1) of the exact steps,
+/// and largest number of rows of their two stacked matrices; a larger plant integrates by
+/// RK4 alone. The half car on four posts needs 24.
+const MAX_COLS: usize = 40;
+
+/// `a · b` of two rows over the extended vector `ξ`, zero-padded to `W`.
+#[inline]
+fn dot_ext<const W: usize>(a: &[f64; W], b: &[f64; W]) -> f64 {
+    dot(a, b)
+}
+
+/// `M ξ` for a square matrix `M` stored by columns (`m[j]` multiplies `ξ_j`), over the
+/// first `used` columns: fixed-length column updates (vector instructions, no horizontal
+/// sums, no bounds checks). The exact steps' inner loop.
+#[inline]
+fn matvec<const W: usize>(m: &[[f64; W]; W], xi: &[f64; W], used: usize) -> [f64; W] {
+    let mut out = [0.0; W];
+    for j in 0..used.min(W) {
+        let (column, x) = (&m[j], xi[j]);
+        for i in 0..W {
+            out[i] += column[i] * x;
+        }
+    }
+    out
+}
+
+/// [`LinearModel`] for the smallest padded width `W` that holds it.
+enum Linear {
+    W8(Box<LinearModel<8>>),
+    W12(Box<LinearModel<12>>),
+    W16(Box<LinearModel<16>>),
+    W24(Box<LinearModel<24>>),
+    W32(Box<LinearModel<32>>),
+    W40(Box<LinearModel<MAX_COLS>>),
+}
+
+/// Runs `$body` with `$m` bound to the [`LinearModel`] inside a [`Linear`], whatever its width.
+macro_rules! with_linear {
+    ($linear:expr, $m:ident => $body:expr) => {
+        match $linear {
+            Linear::W8($m) => $body,
+            Linear::W12($m) => $body,
+            Linear::W16($m) => $body,
+            Linear::W24($m) => $body,
+            Linear::W32($m) => $body,
+            Linear::W40($m) => $body,
+        }
+    };
+}
+
 /// The piecewise-linear plant's affine model and its exact discretisation. Columns of the
-/// extended vector `ξ = [x (N); demand (channels); road (inputs); road rate (inputs); 1]`.
-struct LinearModel {
+/// extended vector `ξ = [x (N); demand (channels); road (inputs); road rate (inputs); 1]`,
+/// zero-padded to `W`.
+///
+/// Per control sample the plant needs two matrix-vector products, both precomputed as one
+/// stacked `W × W` matrix stored by columns:
+/// - at a sample, `[R; O] ξ`: the regime quantities `R ξ` (tested) and the outputs
+///   `O ξ = [y; ẏ; F]`;
+/// - per exact step of `h`, `[Φ Γ; R e^{Gh}] ξ`: the state after the step and the regime
+///   quantities there (the road ramps inside `ξ`, as `G` integrates the road rate), so the
+///   end of a step is tested without building its `ξ`.
+struct LinearModel<const W: usize> {
     states: usize,
     cols: usize,
     channels: usize,
@@ -179,25 +249,303 @@ struct LinearModel {
     /// `D⁻¹ G D` with `D = diag(balance)`.
     generator: Vec<f64>,
     balance: Vec<f64>,
-    /// Rows `y` (channels), `ẏ` (channels), `F` (channels) over `ξ`.
-    outputs: Vec<f64>,
-    /// Regime quantities' rows over `ξ`, tested by `tests`.
-    regime: Vec<f64>,
+    /// Regime quantities' rows `R` over `ξ` (one per quantity), tested by `tests`.
+    regime: Vec<[f64; W]>,
     tests: Vec<RegimeTest>,
-    /// The step (s) `step` is for; NaN: none.
+    /// `[R; O]` by columns.
+    sample_matrix: [[f64; W]; W],
+    /// The step (s) `step_matrix` is for; NaN: none.
     step_s: f64,
-    /// `x(h) = [Φ Γ] ξ(0)` (states × cols).
-    step: Vec<f64>,
-    xi: Vec<f64>,
-    /// The last `xi` found in the linear regime (NaN: none), so that the same point is not
-    /// tested twice (the end of a step and the start of the next, a sample and the step
-    /// that follows it).
-    in_regime_at: Vec<f64>,
-    next: Vec<f64>,
+    /// `[Φ Γ; R e^{Gh}]` by columns.
+    step_matrix: [[f64; W]; W],
+    xi: [f64; W],
+    /// `ξ` and `[R; O] ξ` of the last sample in the linear regime, from which the start of
+    /// the next step is tested by the difference of the road entries alone.
+    sampled_xi: [f64; W],
+    sampled_values: [f64; W],
     // Scratch of the matrix exponential (cols × cols each).
     exp: Vec<f64>,
     term: Vec<f64>,
     product: Vec<f64>,
+}
+
+/// A [`LinearModel`]'s parts as the construction finds them (rows of `cols`).
+struct LinearParts {
+    states: usize,
+    cols: usize,
+    channels: usize,
+    inputs: usize,
+    generator: Vec<f64>,
+    balance: Vec<f64>,
+    /// `3 channels × cols`, row-major.
+    outputs: Vec<f64>,
+    regime: Vec<Vec<f64>>,
+    tests: Vec<RegimeTest>,
+}
+
+impl LinearParts {
+    /// The smallest padded width that holds `ξ` and both stacked matrices' rows.
+    fn width(&self) -> usize {
+        let regime = self.regime.len();
+        self.cols
+            .max(regime + 3 * self.channels)
+            .max(self.states + regime)
+    }
+
+    /// The model with its rows zero-padded to `W` (≥ [`LinearParts::width`]).
+    fn padded<const W: usize>(self) -> LinearModel<W> {
+        let cols = self.cols;
+        let pad = |r: &[f64]| -> [f64; W] {
+            let mut e = [0.0; W];
+            copy(&mut e, r);
+            e
+        };
+        let regime: Vec<[f64; W]> = self.regime.iter().map(|r| pad(r)).collect();
+        // [R; O] by columns.
+        let mut sample_matrix = [[0.0; W]; W];
+        let rows = regime
+            .iter()
+            .copied()
+            .chain(self.outputs.chunks_exact(cols.max(1)).map(pad));
+        for (i, r) in rows.enumerate() {
+            for (column, v) in sample_matrix.iter_mut().zip(r) {
+                if let Some(c) = column.get_mut(i) {
+                    *c = v;
+                }
+            }
+        }
+        LinearModel {
+            states: self.states,
+            cols,
+            channels: self.channels,
+            inputs: self.inputs,
+            generator: self.generator,
+            balance: self.balance,
+            regime,
+            tests: self.tests,
+            sample_matrix,
+            step_s: f64::NAN,
+            step_matrix: [[0.0; W]; W],
+            xi: [0.0; W],
+            sampled_xi: [0.0; W],
+            sampled_values: [0.0; W],
+            exp: vec![0.0; cols * cols],
+            term: vec![0.0; cols * cols],
+            product: vec![0.0; cols * cols],
+        }
+    }
+}
+
+impl<const W: usize> LinearModel<W> {
+    /// `e^{G h}` of the balanced generator into `exp` (scaling and squaring of a Taylor
+    /// series of degree 18 at norm <= 1/2), then the stacked step matrix `[Φ Γ; R e^{Gh}]`
+    /// un-balanced. False (and no step) if the result is not finite.
+    fn discretise(&mut self, h: f64) -> bool {
+        let p = self.cols;
+        let norm = (0..p)
+            .map(|j| {
+                (0..p)
+                    .map(|i| self.generator.get(i * p + j).map_or(0.0, |v| (v * h).abs()))
+                    .sum::<f64>()
+            })
+            .fold(0.0_f64, f64::max);
+        let mut squarings = 0;
+        let mut scale = h;
+        let mut reduced = norm;
+        while reduced > 0.5 && squarings < 200 {
+            reduced *= 0.5;
+            scale *= 0.5;
+            squarings += 1;
+        }
+        // exp = term = I.
+        for (i, (e, t)) in self.exp.iter_mut().zip(self.term.iter_mut()).enumerate() {
+            let v = if i % (p + 1) == 0 { 1.0 } else { 0.0 };
+            *e = v;
+            *t = v;
+        }
+        for k in 1..=18 {
+            matmul(&self.term, &self.generator, p, &mut self.product);
+            let f = scale / f64::from(k);
+            for ((t, pr), e) in self
+                .term
+                .iter_mut()
+                .zip(&self.product)
+                .zip(self.exp.iter_mut())
+            {
+                *t = pr * f;
+                *e += *t;
+            }
+        }
+        for _ in 0..squarings {
+            matmul(&self.exp, &self.exp, p, &mut self.product);
+            std::mem::swap(&mut self.exp, &mut self.product);
+        }
+        // Un-balance in place: e^{Gh} = D (balanced exponential) D⁻¹.
+        for i in 0..p {
+            let di = self.balance.get(i).copied().unwrap_or(1.0);
+            for (j, e) in self
+                .exp
+                .get_mut(i * p..i * p + p)
+                .unwrap_or(&mut [])
+                .iter_mut()
+                .enumerate()
+            {
+                *e = di * *e / self.balance.get(j).copied().unwrap_or(1.0);
+            }
+        }
+        let mut finite = true;
+        let mut matrix = [[0.0; W]; W];
+        for (j, column) in matrix.iter_mut().enumerate().take(p) {
+            let exp_column = |i: usize| self.exp.get(i * p + j).copied().unwrap_or(0.0);
+            for (i, c) in column.iter_mut().enumerate().take(self.states) {
+                *c = exp_column(i);
+            }
+            for (r, c) in self.regime.iter().zip(column.iter_mut().skip(self.states)) {
+                *c = r
+                    .iter()
+                    .take(p)
+                    .enumerate()
+                    .map(|(k, rk)| rk * exp_column(k))
+                    .sum();
+            }
+            finite &= column.iter().all(|v| v.is_finite());
+        }
+        self.step_matrix = matrix;
+        self.step_s = if finite { h } else { f64::NAN };
+        finite
+    }
+
+    /// Fills `xi` with `[x; demand; road; road rate; 1]` (and the zero padding).
+    fn fill(&mut self, x: &[f64], demand: &[f64], road: &[f64], road_rate: &[f64]) {
+        let len = self.cols;
+        let (xs, rest) = self.xi.split_at_mut(self.states.min(len));
+        copy(xs, x);
+        let (ds, rest) = rest.split_at_mut(self.channels.min(rest.len()));
+        copy(ds, demand);
+        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
+        copy(ws, road);
+        let (rs, one) = rest.split_at_mut(self.inputs.min(rest.len()));
+        copy(rs, road_rate);
+        if let Some(o) = one.first_mut() {
+            *o = 1.0;
+        }
+    }
+
+    /// Sets the road in `xi` to the ramp from `from` to `to` (m) over `duration_s` (s) at
+    /// `fraction` of it, and the road rate to the ramp's (m/s), as [`Plant::advance`]'s RK4
+    /// steps do.
+    fn set_ramp(&mut self, from: &[f64], to: &[f64], fraction: f64, duration_s: f64) {
+        let start = self.states + self.channels;
+        let rest = self.xi.get_mut(start..).unwrap_or(&mut []);
+        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
+        for ((w, rate), (a, b)) in ws.iter_mut().zip(rest.iter_mut()).zip(from.iter().zip(to)) {
+            *w = a + fraction * (b - a);
+            *rate = (b - a) / duration_s;
+        }
+    }
+
+    /// Whether the regime quantities `values` (in the order of `tests`) pass every test
+    /// (false for NaN).
+    fn passes(&self, values: &[f64], actuators: &[ForceActuator]) -> bool {
+        let mut values = values.iter().copied();
+        let mut value = || values.next().unwrap_or(f64::NAN);
+        self.tests.iter().all(|test| match *test {
+            RegimeTest::NonNegative => value() >= 0.0,
+            RegimeTest::Above(bound) => value() > bound,
+            RegimeTest::Actuator(j) => {
+                let (u, demanded, pl) = (value(), value(), value());
+                actuators
+                    .get(j)
+                    .is_some_and(|a| a.in_linear_regime(u, demanded, pl))
+            }
+        })
+    }
+
+    /// Whether `xi` lies in the linear regime (false for NaN).
+    fn in_regime(&self, actuators: &[ForceActuator]) -> bool {
+        let mut values = [0.0; W];
+        for (v, r) in values.iter_mut().zip(&self.regime) {
+            *v = dot_ext(r, &self.xi);
+        }
+        self.passes(&values, actuators)
+    }
+
+    /// The outputs `y`, `ẏ` and `F` (per channel) at state `x` with `(demand, road, road
+    /// rate)`, if that point lies in the linear regime (false, outputs untouched, if not).
+    fn sample(
+        &mut self,
+        x: &[f64],
+        actuators: &[ForceActuator],
+        (demand, road, road_rate): (&[f64], &[f64], &[f64]),
+        (y, y_dot, forces): (&mut [f64], &mut [f64], &mut [f64]),
+    ) -> bool {
+        self.fill(x, demand, road, road_rate);
+        let values = matvec(&self.sample_matrix, &self.xi, self.cols);
+        let regime = self.regime.len();
+        if !self.passes(&values, actuators) {
+            return false;
+        }
+        self.sampled_xi = self.xi;
+        self.sampled_values = values;
+        let ch = self.channels;
+        let outputs = values.get(regime..).unwrap_or(&[]);
+        let (ys, rest) = outputs.split_at(ch.min(outputs.len()));
+        let (y_dots, fs) = rest.split_at(ch.min(rest.len()));
+        copy(y, ys);
+        copy(y_dot, y_dots);
+        copy(forces, fs);
+        true
+    }
+
+    /// One exact step of `self.step_s` from `x` (in place) with the demand held and the
+    /// road on the ramp from `from` to `to` (m) over `duration_s` (s), from the fraction
+    /// `f0` of it; false (and `x` unchanged) when either end is outside the linear regime.
+    /// The start is tested as `start` says: [`StartTest::Known`] when it is where the last
+    /// step ended, [`StartTest::FromSample`] when it differs from the last sample's point
+    /// (same state and demand) in its road entries alone.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        x: &mut [f64],
+        actuators: &[ForceActuator],
+        demand: &[f64],
+        from: &[f64],
+        to: &[f64],
+        f0: f64,
+        duration_s: f64,
+        start: StartTest,
+    ) -> bool {
+        self.fill(x, demand, &[], &[]);
+        self.set_ramp(from, to, f0, duration_s);
+        let start_inside = match start {
+            StartTest::Known => true,
+            StartTest::Full => self.in_regime(actuators),
+            StartTest::FromSample => {
+                // R ξ = R ξ_sample + Σ over the road columns R_c (ξ_c − ξ_sample,c).
+                let mut values = self.sampled_values;
+                let first = self.states + self.channels;
+                for c in first..first + 2 * self.inputs {
+                    let delta = self.xi.get(c).copied().unwrap_or(0.0)
+                        - self.sampled_xi.get(c).copied().unwrap_or(0.0);
+                    if delta != 0.0 {
+                        for (v, r) in values.iter_mut().zip(&self.regime) {
+                            *v += r.get(c).copied().unwrap_or(0.0) * delta;
+                        }
+                    }
+                }
+                self.passes(&values, actuators)
+            }
+        };
+        if !start_inside {
+            return false;
+        }
+        let next = matvec(&self.step_matrix, &self.xi, self.cols);
+        if !self.passes(next.get(self.states..).unwrap_or(&[]), actuators) {
+            return false;
+        }
+        copy(x, &next);
+        true
+    }
 }
 
 /// The specimen with its drive, state and scratch space (no allocation while stepping; the
@@ -245,7 +593,13 @@ pub struct Plant {
     sampled_road_rate: Vec<f64>,
     /// The specimen's coefficients padded to [`FIXED`] (when it fits).
     fixed: Option<Fixed>,
-    linear: Option<Box<LinearModel>>,
+    linear: Option<Linear>,
+    /// The last [`Plant::sample`] took the exact path at the current state with the demand
+    /// in `sampled_demand` (so that point is known to be in the linear regime).
+    exact_sample_ready: bool,
+    /// `(duration (s), internal steps, step (s))` of the last [`Plant::advance`], so that
+    /// the usual constant duration costs no divisions.
+    advance_split: (f64, usize, f64),
     exact_steps: bool,
     counts: StepCounts,
 }
@@ -293,9 +647,24 @@ pub fn invert(rows: &[Vec<f64>]) -> Option<Vec<f64>> {
     Some(inv)
 }
 
+/// `a · b` over the shorter length, in four interleaved partial sums (lets the compiler
+/// vectorise it).
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    let mut acc = [0.0; 4];
+    let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        for ((s, xi), yi) in acc.iter_mut().zip(x).zip(y) {
+            *s += xi * yi;
+        }
+    }
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 /// Row `i` of a row-major matrix with rows of `n` (empty beyond the end). Multiplies where
@@ -376,172 +745,6 @@ fn balance(a: &mut [f64], p: usize) -> Vec<f64> {
         }
     }
     d
-}
-
-impl LinearModel {
-    /// `e^{G h}` of the balanced generator into `exp` (scaling and squaring of a Taylor
-    /// series of degree 18 at norm <= 1/2), then the step rows `[Φ Γ]` un-balanced. False
-    /// (and no step) if the result is not finite.
-    fn discretise(&mut self, h: f64) -> bool {
-        let p = self.cols;
-        let norm = (0..p)
-            .map(|j| {
-                (0..p)
-                    .map(|i| self.generator.get(i * p + j).map_or(0.0, |v| (v * h).abs()))
-                    .sum::<f64>()
-            })
-            .fold(0.0_f64, f64::max);
-        let mut squarings = 0;
-        let mut scale = h;
-        let mut reduced = norm;
-        while reduced > 0.5 && squarings < 200 {
-            reduced *= 0.5;
-            scale *= 0.5;
-            squarings += 1;
-        }
-        // exp = term = I.
-        for (i, (e, t)) in self.exp.iter_mut().zip(self.term.iter_mut()).enumerate() {
-            let v = if i % (p + 1) == 0 { 1.0 } else { 0.0 };
-            *e = v;
-            *t = v;
-        }
-        for k in 1..=18 {
-            matmul(&self.term, &self.generator, p, &mut self.product);
-            let f = scale / f64::from(k);
-            for ((t, pr), e) in self
-                .term
-                .iter_mut()
-                .zip(&self.product)
-                .zip(self.exp.iter_mut())
-            {
-                *t = pr * f;
-                *e += *t;
-            }
-        }
-        for _ in 0..squarings {
-            matmul(&self.exp, &self.exp, p, &mut self.product);
-            std::mem::swap(&mut self.exp, &mut self.product);
-        }
-        let mut finite = true;
-        for i in 0..self.states {
-            let di = self.balance.get(i).copied().unwrap_or(1.0);
-            for (j, (s, e)) in self
-                .step
-                .get_mut(i * p..i * p + p)
-                .unwrap_or(&mut [])
-                .iter_mut()
-                .zip(row(&self.exp, i, p))
-                .enumerate()
-            {
-                *s = di * e / self.balance.get(j).copied().unwrap_or(1.0);
-                finite &= s.is_finite();
-            }
-        }
-        self.step_s = if finite { h } else { f64::NAN };
-        finite
-    }
-
-    /// Fills `xi` with `[x; demand; road; road rate; 1]`.
-    fn fill(&mut self, x: &[f64], demand: &[f64], road: &[f64], road_rate: &[f64]) {
-        let len = self.xi.len();
-        let (xs, rest) = self.xi.split_at_mut(self.states.min(len));
-        copy(xs, x);
-        let (ds, rest) = rest.split_at_mut(self.channels.min(rest.len()));
-        copy(ds, demand);
-        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
-        copy(ws, road);
-        let (rs, one) = rest.split_at_mut(self.inputs.min(rest.len()));
-        copy(rs, road_rate);
-        if let Some(o) = one.first_mut() {
-            *o = 1.0;
-        }
-    }
-
-    /// Sets the road in `xi` to the ramp from `from` to `to` (m) over `duration_s` (s) at
-    /// `fraction` of it, and the road rate to the ramp's (m/s), as [`Plant::advance`]'s RK4
-    /// steps do.
-    fn set_ramp(&mut self, from: &[f64], to: &[f64], fraction: f64, duration_s: f64) {
-        let start = self.states + self.channels;
-        let rest = self.xi.get_mut(start..).unwrap_or(&mut []);
-        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
-        for ((w, rate), (a, b)) in ws.iter_mut().zip(rest.iter_mut()).zip(from.iter().zip(to)) {
-            *w = a + fraction * (b - a);
-            *rate = (b - a) / duration_s;
-        }
-    }
-
-    /// Whether `xi` lies in the linear regime (false for NaN), remembering the last point
-    /// found in it.
-    fn in_regime(&mut self, actuators: &[ForceActuator]) -> bool {
-        if self.in_regime_at == self.xi {
-            return true;
-        }
-        let inside = self.test_regime(actuators);
-        if inside {
-            copy(&mut self.in_regime_at, &self.xi);
-        }
-        inside
-    }
-
-    /// Whether `xi` lies in the linear regime (false for NaN).
-    fn test_regime(&self, actuators: &[ForceActuator]) -> bool {
-        let cols = self.cols;
-        let mut r = 0;
-        let mut value = || {
-            let v = dot(row(&self.regime, r, cols), &self.xi);
-            r += 1;
-            v
-        };
-        for test in &self.tests {
-            let ok = match *test {
-                RegimeTest::NonNegative => value() >= 0.0,
-                RegimeTest::Above(bound) => value() > bound,
-                RegimeTest::Actuator(j) => {
-                    let (u, demanded, pl) = (value(), value(), value());
-                    actuators
-                        .get(j)
-                        .is_some_and(|a| a.in_linear_regime(u, demanded, pl))
-                }
-            };
-            if !ok {
-                return false;
-            }
-        }
-        true
-    }
-
-    /// One exact step of `self.step_s` from `x` (in place) with the demand held and the
-    /// road on the ramp from `from` to `to` (m) over `duration_s` (s), between the fractions
-    /// `f0` and `f1` of it; false (and `x` unchanged) when either end is outside the linear
-    /// regime.
-    #[allow(clippy::too_many_arguments)]
-    fn step(
-        &mut self,
-        x: &mut [f64],
-        actuators: &[ForceActuator],
-        demand: &[f64],
-        from: &[f64],
-        to: &[f64],
-        (f0, f1): (f64, f64),
-        duration_s: f64,
-    ) -> bool {
-        self.fill(x, demand, &[], &[]);
-        self.set_ramp(from, to, f0, duration_s);
-        if !self.in_regime(actuators) {
-            return false;
-        }
-        let cols = self.cols;
-        for (i, nx) in self.next.iter_mut().enumerate() {
-            *nx = dot(row(&self.step, i, cols), &self.xi);
-        }
-        copy(&mut self.xi, &self.next);
-        self.set_ramp(from, to, f1, duration_s);
-        if !self.in_regime(actuators) {
-            return false;
-        }
-        copy(x, &self.next);
-        true
-    }
 }
 
 impl Plant {
@@ -702,10 +905,12 @@ impl Plant {
             drive,
             fixed,
             linear: None,
+            exact_sample_ready: false,
+            advance_split: (f64::NAN, 1, f64::NAN),
             exact_steps: true,
             counts: StepCounts::default(),
         };
-        plant.linear = plant.linear_model().map(Box::new);
+        plant.linear = plant.linear_model();
         Ok(plant)
     }
 
@@ -720,7 +925,7 @@ impl Plant {
     }
 
     /// The affine model of a piecewise-linear plant (`None` otherwise).
-    fn linear_model(&self) -> Option<LinearModel> {
+    fn linear_model(&self) -> Option<Linear> {
         if self.element_states > 0
             || !self
                 .specimen
@@ -798,7 +1003,7 @@ impl Plant {
             generator[(states + ch + i) * cols + states + ch + inputs + i] = 1.0;
         }
         let balance = balance(&mut generator, cols);
-        Some(LinearModel {
+        let parts = LinearParts {
             states,
             cols,
             channels: ch,
@@ -806,16 +1011,17 @@ impl Plant {
             generator,
             balance,
             outputs,
-            regime: regime.into_iter().flatten().collect(),
+            regime,
             tests,
-            step_s: f64::NAN,
-            step: vec![0.0; states * cols],
-            xi: vec![0.0; cols],
-            in_regime_at: vec![f64::NAN; cols],
-            next: vec![0.0; states],
-            exp: vec![0.0; cols * cols],
-            term: vec![0.0; cols * cols],
-            product: vec![0.0; cols * cols],
+        };
+        Some(match parts.width() {
+            0..=8 => Linear::W8(Box::new(parts.padded())),
+            9..=12 => Linear::W12(Box::new(parts.padded())),
+            13..=16 => Linear::W16(Box::new(parts.padded())),
+            17..=24 => Linear::W24(Box::new(parts.padded())),
+            25..=32 => Linear::W32(Box::new(parts.padded())),
+            33..=MAX_COLS => Linear::W40(Box::new(parts.padded())),
+            _ => return None,
         })
     }
 
@@ -964,6 +1170,7 @@ impl Plant {
     pub fn set_exact_steps(&mut self, on: bool) {
         self.exact_steps = on;
         self.first_stage_ready = false;
+        self.exact_sample_ready = false;
     }
 
     /// Internal steps taken so far, exact and RK4.
@@ -977,6 +1184,7 @@ impl Plant {
         self.state.iter_mut().for_each(|x| *x = 0.0);
         self.time_s = 0.0;
         self.first_stage_ready = false;
+        self.exact_sample_ready = false;
         let offset = 2 * self.n + self.element_states;
         if let Drive::Actuators(acts) = &self.drive {
             for (j, (a, f)) in acts.iter().zip(demand).enumerate() {
@@ -1182,31 +1390,51 @@ impl Plant {
     /// ramp's rate `(road_to − road_from) / duration_s` (m/s), the first RK4 stage is the
     /// derivative it evaluated and is not evaluated again.
     pub fn advance(&mut self, duration_s: f64, demand: &[f64], road_from: &[f64], road_to: &[f64]) {
-        let steps = (duration_s / self.internal_step_s - 1e-9).ceil().max(1.0) as usize;
-        let h = duration_s / steps as f64;
+        if self.advance_split.0 != duration_s {
+            let steps = (duration_s / self.internal_step_s - 1e-9).ceil().max(1.0) as usize;
+            self.advance_split = (duration_s, steps, duration_s / steps as f64);
+        }
+        let (_, steps, h) = self.advance_split;
+        // The start of the first step is the point the last sample found in the linear
+        // regime but for the road entries (the sample takes the road rate centrally, the
+        // step from the ramp) when the state and the demand are the same.
+        let sampled_start = self.exact_sample_ready && self.sampled_demand.as_slice() == demand;
+        self.exact_sample_ready = false;
         let mut exact = false;
         if self.exact_steps {
-            if let Some(model) = self.linear.as_mut() {
-                exact = model.step_s == h || model.discretise(h);
+            if let Some(linear) = self.linear.as_mut() {
+                exact = with_linear!(linear, m => m.step_s == h || m.discretise(h));
             }
         }
+        let mut previous_exact = false;
         for s in 0..steps {
             if exact {
-                if let Some(model) = self.linear.as_mut() {
+                if let Some(linear) = self.linear.as_mut() {
                     let actuators: &[ForceActuator] = match &self.drive {
                         Drive::Actuators(a) => a,
                         Drive::Ideal(_) => &[],
                     };
-                    let fractions = (s as f64 / steps as f64, (s as f64 + 1.0) / steps as f64);
-                    if model.step(
-                        &mut self.state,
+                    let f0 = if s == 0 { 0.0 } else { s as f64 / steps as f64 };
+                    let state = &mut self.state;
+                    // After an exact step the start was tested as that step's end.
+                    let start = match (s, sampled_start, previous_exact) {
+                        (0, true, _) if self.road.is_empty() => StartTest::Known,
+                        (0, true, _) => StartTest::FromSample,
+                        (0, false, _) | (_, _, false) => StartTest::Full,
+                        _ => StartTest::Known,
+                    };
+                    let done = with_linear!(linear, m => m.step(
+                        state,
                         actuators,
                         demand,
                         road_from,
                         road_to,
-                        fractions,
+                        f0,
                         duration_s,
-                    ) {
+                        start,
+                    ));
+                    previous_exact = done;
+                    if done {
                         self.counts.exact += 1;
                         continue;
                     }
@@ -1266,30 +1494,28 @@ impl Plant {
     /// nothing.
     pub fn sample(&mut self, demand: &[f64], road: &[f64], road_rate: &[f64]) {
         if self.exact_steps {
-            if let Some(model) = self.linear.as_mut() {
+            if let Some(linear) = self.linear.as_mut() {
                 let actuators: &[ForceActuator] = match &self.drive {
                     Drive::Actuators(a) => a,
                     Drive::Ideal(_) => &[],
                 };
-                model.fill(&self.state, demand, road, road_rate);
-                if model.in_regime(actuators) {
-                    let (ch, cols) = (self.channels, model.cols);
-                    for (j, ((y, y_dot), f)) in self
-                        .y
-                        .iter_mut()
-                        .zip(self.y_dot.iter_mut())
-                        .zip(self.forces.iter_mut())
-                        .enumerate()
-                    {
-                        *y = dot(row(&model.outputs, j, cols), &model.xi);
-                        *y_dot = dot(row(&model.outputs, ch + j, cols), &model.xi);
-                        *f = dot(row(&model.outputs, 2 * ch + j, cols), &model.xi);
-                    }
+                let (state, y, y_dot, forces) =
+                    (&self.state, &mut self.y, &mut self.y_dot, &mut self.forces);
+                let inside = with_linear!(linear, m => m.sample(
+                    state,
+                    actuators,
+                    (demand, road, road_rate),
+                    (y, y_dot, forces),
+                ));
+                if inside {
                     self.first_stage_ready = false;
+                    self.exact_sample_ready = true;
+                    copy(&mut self.sampled_demand, demand);
                     return;
                 }
             }
         }
+        self.exact_sample_ready = false;
         copy(&mut self.road, road);
         copy(&mut self.road_rate, road_rate);
         self.derivative(0, false, demand);
