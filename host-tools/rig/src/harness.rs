@@ -32,6 +32,42 @@ use crate::plant::Plant;
 use crate::sensors::{Sensor, SensorSpec};
 use model_core::{Controller, Model, ModelInput, Status};
 
+/// What the harness steps every sample: model-core's [`Controller`] on the host, or the
+/// board itself behind a transport (the firmware in QEMU, a rig board on a CAN adapter).
+pub trait Board<const CH: usize> {
+    /// Starts the model (the harness calls it once, with the rig at rest).
+    ///
+    /// # Errors
+    /// The board did not start (a transport error, a refused command).
+    fn start(&mut self) -> Result<(), String>;
+
+    /// One control sample: the measured input in, the actuator demand per channel (N) out.
+    ///
+    /// # Errors
+    /// No demand came back (a transport error or timeout).
+    fn step(&mut self, input: &ModelInput<CH>) -> Result<[f32; CH], String>;
+
+    /// The board's status after the last step.
+    fn status(&self) -> Status;
+}
+
+/// The host's own controller: a controller that cannot start (a latched fault) stays in its
+/// mode, which the run's status history shows; it never fails.
+impl<M: Model<CH>, const CH: usize> Board<CH> for Controller<M, CH> {
+    fn start(&mut self) -> Result<(), String> {
+        Controller::start(self);
+        Ok(())
+    }
+
+    fn step(&mut self, input: &ModelInput<CH>) -> Result<[f32; CH], String> {
+        Ok(Controller::step(self, input))
+    }
+
+    fn status(&self) -> Status {
+        Controller::status(self)
+    }
+}
+
 /// Sensors and links of every channel (the same spec on every channel).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Instrumentation {
@@ -120,6 +156,9 @@ pub enum HarnessError {
     /// Inconsistent channels or inputs.
     #[error("{0}")]
     Layout(String),
+    /// The board failed (a remote board's transport).
+    #[error("board: {0}")]
+    Board(String),
 }
 
 struct Channel {
@@ -188,8 +227,8 @@ impl PlantRoad {
 /// Invalid sensors or links, parts that do not cover the controller's channels, or road
 /// inputs of unequal length.
 #[allow(clippy::too_many_arguments)]
-pub fn run<M: Model<CH>, const CH: usize>(
-    controller: &mut Controller<M, CH>,
+pub fn run<B: Board<CH>, const CH: usize>(
+    controller: &mut B,
     parts: &mut [RigPart],
     instrumentation: &Instrumentation,
     sample_rate_hz: f64,
@@ -262,7 +301,7 @@ pub fn run<M: Model<CH>, const CH: usize>(
         ch.force_link.prime(initial_demand[c]);
         ch.demand_link.prime(initial_demand[c]);
     }
-    controller.start();
+    controller.start().map_err(HarnessError::Board)?;
 
     let column = || vec![Vec::with_capacity(n); CH];
     let mut h = Histories {
@@ -320,7 +359,9 @@ pub fn run<M: Model<CH>, const CH: usize>(
             force[c] = ch.received_force;
         }
         // 3. The board's step.
-        let demand = controller.step(&input(&position, &force, &sample_road, k));
+        let demand = controller
+            .step(&input(&position, &force, &sample_road, k))
+            .map_err(HarnessError::Board)?;
         h.status.push(controller.status());
         // 4. The demand back to the rig, applied from the next sample.
         let mut next_applied = applied;
