@@ -1,0 +1,690 @@
+//! The application logic shared by the board and the QEMU build: what happens to a decoded
+//! measurement, a watchdog tick and a command. No hardware, no frame codec (see
+//! [`crate::link`] for the frames), no heap, no panics; it runs unchanged in host tests.
+//!
+//! # One sample
+//! A valid measurement (channel 0, decoded without error) feeds the watchdog, updates the
+//! missed/late counters from its counter, runs one [`Controller::step`] on the latest
+//! position, road, force and speed, and returns the demand to transmit (and, every K-th
+//! step, a status report). MeasurementAux frames only update force and speed for the next
+//! step.
+//!
+//! # The communication watchdog
+//! A periodic tick (the board: every sample period; QEMU: see [`crate::config::QEMU_TICK_US`])
+//! counts the ticks since the last valid measurement. The watchdog is armed once a valid
+//! measurement has been seen or the controller is Running. When N ticks have passed without
+//! a valid measurement the link is *lost*: a Running controller is tripped with
+//! [`fault::COMM_TIMEOUT`] (latched until a ClearFault command), and from then on every tick
+//! steps the controller itself (its demand ramps to the safe demand at the safe ramp rate)
+//! and returns the demand to transmit, until measurements come back.
+
+use model_core::{Mode, ModelInput, ParamError};
+
+use crate::config::{
+    default_params, Controller, Params, Prepared, CHANNELS, DT, STATUS_PERIOD_SAMPLES,
+    WATCHDOG_SAMPLES,
+};
+use crate::params::{code, status_period, watchdog_from_seconds, watchdog_limit};
+
+/// Fault bits: model-core's ([`model_core::fault`]) plus the firmware's own.
+pub mod fault {
+    /// A non-finite or out-of-range input (model-core, bit 0).
+    pub const INVALID_INPUT: u8 = model_core::fault::INVALID_INPUT;
+    /// A non-finite value inside the model or the command filter (model-core, bit 1).
+    pub const NUMERICAL: u8 = model_core::fault::NUMERICAL;
+    /// Bits 2 and 3 are left free for future model-core causes.
+    pub const RESERVED_MODEL_CORE: u8 = (1 << 2) | (1 << 3);
+    /// Communication timeout (firmware, bit 4): no valid measurement for N watchdog ticks
+    /// while Running.
+    pub const COMM_TIMEOUT: u8 = 1 << 4;
+}
+
+/// A decoded measurement frame (the sample clock of the loop).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measurement {
+    /// Actuator channel (this firmware serves channel 0 only).
+    pub channel: u8,
+    /// Measured hub position (m, up positive).
+    pub position_m: f32,
+    /// Road displacement under the tyre (m, up positive).
+    pub road_m: f32,
+    /// The servo controller's sample counter (wraps at [`Application::new`]'s modulus).
+    pub counter: u32,
+}
+
+/// A decoded auxiliary measurement: used in the next step, does not trigger one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasurementAux {
+    /// Actuator channel.
+    pub channel: u8,
+    /// Measured interface force (N).
+    pub force_n: f32,
+    /// Vehicle speed (m/s).
+    pub speed_m_per_s: f32,
+}
+
+/// A command for the configuration task.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Command {
+    /// Idle → Running.
+    Start,
+    /// Running → Idle (demand ramps to the safe demand).
+    Stop,
+    /// Fault → Idle, clears every fault bit.
+    ClearFault,
+    /// Sets the parameter `index` ([`crate::params`]) to `value`.
+    SetParam {
+        /// Parameter index.
+        index: u16,
+        /// New value.
+        value: f32,
+    },
+    /// Sets the watchdog timeout: `seconds` of sample time, N = round(seconds · 2000) ticks
+    /// ([`crate::params::watchdog_from_seconds`]).
+    SetWatchdog {
+        /// The timeout (s) as received.
+        seconds: f32,
+    },
+}
+
+/// The demand of one step, to be transmitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Demand {
+    /// Force demand per channel (N): always finite and inside the demand limits.
+    pub force_n: [f32; CHANNELS],
+    /// The counter of the measurement that produced it; steps of the watchdog tick count on
+    /// from the last one.
+    pub counter: u32,
+    /// Controller mode after the step.
+    pub mode: Mode,
+    /// A fault is latched.
+    pub fault_latched: bool,
+    /// Channels clamped by the amplitude limit in this step (bit per channel).
+    pub amplitude_limited: u8,
+    /// Channels held back by the rate limit in this step (bit per channel).
+    pub rate_limited: u8,
+}
+
+/// The counters reported in the status frame (cumulative since reset, wrapping).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Valid measurements received.
+    pub measurements: u32,
+    /// Controller steps (measurement-driven and watchdog-driven).
+    pub steps: u32,
+    /// Measurements the counter says were never received (a jump of k counts k - 1).
+    pub missed: u32,
+    /// Samples whose demand left late: measurements that came more than one tick later than
+    /// the counter implies, out of order (counter repeated or going back), and demand frames
+    /// that could not be queued.
+    pub late: u32,
+    /// Frames in our ID range that failed to decode (length, range, channel) and were ignored.
+    pub malformed: u32,
+    /// Frames outside our ID range (ignored).
+    pub foreign: u32,
+    /// Communication-watchdog trips.
+    pub comm_timeouts: u32,
+    /// Commands rejected (any non-zero CommandAck code).
+    pub rejected: u32,
+    /// Frames that could not be queued for transmission (board: all mailboxes full).
+    pub tx_dropped: u32,
+}
+
+/// What the status frame carries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StatusReport {
+    /// Controller mode.
+    pub mode: Mode,
+    /// Latched fault bits ([`fault`]).
+    pub fault: u8,
+    /// Channels clamped by the amplitude limit since the previous status (bit per channel).
+    pub amplitude_limited: u8,
+    /// Channels held back by the rate limit since the previous status (bit per channel).
+    pub rate_limited: u8,
+    /// `true` while the communication watchdog sees the link as lost.
+    pub link_lost: bool,
+    /// The counters.
+    pub counters: Counters,
+}
+
+/// The frames one event asks to transmit, in this order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Output {
+    /// The demand (always present after a step).
+    pub demand: Demand,
+    /// A status report, every K steps.
+    pub status: Option<StatusReport>,
+}
+
+/// Why a decoded frame was ignored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ignored {
+    /// A channel this firmware does not serve: counted as malformed.
+    Channel,
+}
+
+/// The communication watchdog (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Watchdog {
+    /// Ticks without a valid measurement before the link counts as lost.
+    pub limit: u16,
+    /// Ticks since the last valid measurement (saturating).
+    pub silent_ticks: u32,
+    /// A valid measurement has been seen since reset.
+    pub seen: bool,
+}
+
+impl Watchdog {
+    /// A watchdog with limit N = `limit`.
+    pub const fn new(limit: u16) -> Self {
+        Self {
+            limit,
+            silent_ticks: 0,
+            seen: false,
+        }
+    }
+
+    /// `true` when N ticks have passed without a valid measurement.
+    pub fn expired(&self) -> bool {
+        self.silent_ticks >= u32::from(self.limit)
+    }
+}
+
+/// The application state: the controller and everything around it.
+#[derive(Clone, Debug)]
+pub struct Application {
+    controller: Controller,
+    input: ModelInput<CHANNELS>,
+    counter_modulus: u32,
+    last_counter: Option<u32>,
+    demand_counter: u32,
+    watchdog: Watchdog,
+    status_period: u16,
+    steps_since_status: u16,
+    amplitude_limited: u8,
+    rate_limited: u8,
+    counters: Counters,
+}
+
+impl Application {
+    /// The default configuration ([`crate::config`]), Idle, demand at the safe value.
+    /// `counter_modulus` is the wrap of the measurement counter (e.g. 256 for a `u8`).
+    /// Fails only if the defaults were invalid, which a unit test rules out.
+    pub fn new(counter_modulus: u32) -> Result<Self, ParamError> {
+        let controller = Controller::with_params(&default_params(), DT)?;
+        Ok(Self {
+            controller,
+            input: ModelInput::default(),
+            counter_modulus: counter_modulus.max(2),
+            last_counter: None,
+            demand_counter: 0,
+            watchdog: Watchdog::new(WATCHDOG_SAMPLES),
+            status_period: STATUS_PERIOD_SAMPLES,
+            steps_since_status: 0,
+            amplitude_limited: 0,
+            rate_limited: 0,
+            counters: Counters::default(),
+        })
+    }
+
+    /// The controller (read only).
+    pub fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// The running parameter set.
+    pub fn params(&self) -> &Params {
+        self.controller.params()
+    }
+
+    /// The watchdog state.
+    pub fn watchdog(&self) -> &Watchdog {
+        &self.watchdog
+    }
+
+    /// The status period K (steps).
+    pub fn status_period(&self) -> u16 {
+        self.status_period
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// Counts a frame in our ID range that failed to decode.
+    pub fn count_malformed(&mut self) {
+        self.counters.malformed = self.counters.malformed.wrapping_add(1);
+    }
+
+    /// Counts a frame outside our ID range.
+    pub fn count_foreign(&mut self) {
+        self.counters.foreign = self.counters.foreign.wrapping_add(1);
+    }
+
+    /// Counts a frame that could not be queued for transmission.
+    pub fn count_tx_dropped(&mut self) {
+        self.counters.tx_dropped = self.counters.tx_dropped.wrapping_add(1);
+    }
+
+    /// Counts a demand frame that could not be queued: it leaves late (if at all).
+    pub fn count_late_demand(&mut self) {
+        self.counters.late = self.counters.late.wrapping_add(1);
+    }
+
+    /// Counts a rejected command.
+    pub fn count_rejected(&mut self) {
+        self.counters.rejected = self.counters.rejected.wrapping_add(1);
+    }
+
+    /// An auxiliary measurement: stores force and speed for the next step.
+    pub fn on_aux(&mut self, aux: &MeasurementAux) -> Result<(), Ignored> {
+        if usize::from(aux.channel) >= CHANNELS {
+            self.count_malformed();
+            return Err(Ignored::Channel);
+        }
+        if let Some(f) = self.input.force.get_mut(usize::from(aux.channel)) {
+            *f = aux.force_n;
+        }
+        self.input.speed = aux.speed_m_per_s;
+        Ok(())
+    }
+
+    /// A measurement: one controller step. Returns the frames to transmit.
+    pub fn on_measurement(&mut self, m: &Measurement) -> Result<Output, Ignored> {
+        let ch = usize::from(m.channel);
+        if ch >= CHANNELS {
+            self.count_malformed();
+            return Err(Ignored::Channel);
+        }
+        self.counters.measurements = self.counters.measurements.wrapping_add(1);
+        self.track_counter(m.counter % self.counter_modulus);
+        self.watchdog.silent_ticks = 0;
+        self.watchdog.seen = true;
+        if let Some(x) = self.input.position.get_mut(ch) {
+            *x = m.position_m;
+        }
+        if let Some(z) = self.input.road.get_mut(ch) {
+            *z = m.road_m;
+        }
+        self.demand_counter = m.counter;
+        Ok(self.step())
+    }
+
+    /// Updates the missed and late counters from the measurement counter and the ticks.
+    fn track_counter(&mut self, counter: u32) {
+        if let Some(prev) = self.last_counter {
+            let jump = counter
+                .wrapping_add(self.counter_modulus)
+                .wrapping_sub(prev)
+                % self.counter_modulus;
+            if jump == 0 || jump > self.counter_modulus / 2 {
+                // Repeated or going back: out of order.
+                self.counters.late = self.counters.late.wrapping_add(1);
+            } else {
+                self.counters.missed = self.counters.missed.wrapping_add(jump - 1);
+                if self.watchdog.silent_ticks > jump.saturating_add(1) {
+                    self.counters.late = self.counters.late.wrapping_add(1);
+                }
+            }
+        }
+        self.last_counter = Some(counter);
+    }
+
+    /// One watchdog tick. Returns the frames to transmit when the tick stepped the controller
+    /// (the link is lost).
+    pub fn on_tick(&mut self) -> Option<Output> {
+        let armed = self.watchdog.seen || self.controller.mode() == Mode::Running;
+        if !armed {
+            return None;
+        }
+        self.watchdog.silent_ticks = self.watchdog.silent_ticks.saturating_add(1);
+        if !self.watchdog.expired() {
+            return None;
+        }
+        if self.controller.mode() == Mode::Running {
+            self.controller.trip(fault::COMM_TIMEOUT);
+            self.counters.comm_timeouts = self.counters.comm_timeouts.wrapping_add(1);
+        }
+        self.demand_counter = self.demand_counter.wrapping_add(1) % self.counter_modulus;
+        Some(self.step())
+    }
+
+    /// One controller step on the stored input.
+    fn step(&mut self) -> Output {
+        let force_n = self.controller.step(&self.input);
+        let s = self.controller.status();
+        self.amplitude_limited |= s.amplitude_limited;
+        self.rate_limited |= s.rate_limited;
+        self.counters.steps = self.counters.steps.wrapping_add(1);
+        self.steps_since_status = self.steps_since_status.saturating_add(1);
+        let status = if self.steps_since_status >= self.status_period {
+            self.steps_since_status = 0;
+            let report = self.status();
+            self.amplitude_limited = 0;
+            self.rate_limited = 0;
+            Some(report)
+        } else {
+            None
+        };
+        Output {
+            demand: Demand {
+                force_n,
+                counter: self.demand_counter,
+                mode: s.mode,
+                fault_latched: s.mode == Mode::Fault,
+                amplitude_limited: s.amplitude_limited,
+                rate_limited: s.rate_limited,
+            },
+            status,
+        }
+    }
+
+    /// The status as it is now.
+    pub fn status(&self) -> StatusReport {
+        StatusReport {
+            mode: self.controller.mode(),
+            fault: self.latched_fault(),
+            amplitude_limited: self.amplitude_limited,
+            rate_limited: self.rate_limited,
+            link_lost: self.watchdog.seen && self.watchdog.expired(),
+            counters: self.counters,
+        }
+    }
+
+    /// The fault bits latched now (0 unless in Fault; every trip is followed by a step, so
+    /// the step's status holds the bits).
+    fn latched_fault(&self) -> u8 {
+        if self.controller.mode() == Mode::Fault {
+            self.controller.status().fault
+        } else {
+            0
+        }
+    }
+
+    /// Applies a command that needs no parameter validation; returns the CommandAck code.
+    /// `SetParam` for controller parameters goes through [`Self::swap`] instead (validated
+    /// outside any lock by the caller).
+    pub fn command(&mut self, command: &Command) -> u8 {
+        let result = match *command {
+            Command::Start => {
+                if self.controller.start() {
+                    code::OK
+                } else {
+                    code::WRONG_MODE
+                }
+            }
+            Command::Stop => {
+                self.controller.stop();
+                code::OK
+            }
+            Command::ClearFault => {
+                if self.controller.clear_fault() {
+                    code::OK
+                } else {
+                    code::WRONG_MODE
+                }
+            }
+            Command::SetWatchdog { seconds } => match watchdog_from_seconds(seconds) {
+                Ok(n) => {
+                    self.watchdog.limit = n;
+                    code::OK
+                }
+                Err(c) => c,
+            },
+            Command::SetParam { index, value } => match crate::params::target(index) {
+                Some(crate::params::Target::StatusPeriod) => match status_period(value) {
+                    Ok(k) => {
+                        self.status_period = k;
+                        code::OK
+                    }
+                    Err(c) => c,
+                },
+                Some(crate::params::Target::Watchdog) => match watchdog_limit(value) {
+                    Ok(n) => {
+                        self.watchdog.limit = n;
+                        code::OK
+                    }
+                    Err(c) => c,
+                },
+                Some(crate::params::Target::Controller) => {
+                    // Validated by the caller; reaching here means a caller bug: refuse.
+                    code::UNKNOWN_INDEX
+                }
+                None => code::UNKNOWN_INDEX,
+            },
+        };
+        if result != code::OK {
+            self.count_rejected();
+        }
+        result
+    }
+
+    /// Swaps in a validated parameter set between two steps.
+    pub fn swap(&mut self, prepared: Prepared) -> u8 {
+        match self.controller.swap_params(prepared) {
+            Ok(()) => code::OK,
+            Err(e) => {
+                self.count_rejected();
+                crate::params::error_code(&e)
+            }
+        }
+    }
+}
+
+/// Validates a change of controller parameter `index` to `value` on a copy of `current`:
+/// the set to swap in, or the CommandAck code. Pure: runs outside any lock.
+pub fn prepare_change(current: &Params, index: u16, value: f32) -> Result<Prepared, u8> {
+    let mut next = *current;
+    crate::params::write(&mut next, index, value)?;
+    Prepared::new(&next, DT).map_err(|e| crate::params::error_code(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{SAFE_DEMAND_N, SAFE_RAMP_N_PER_S};
+
+    fn app() -> Application {
+        Application::new(256).unwrap()
+    }
+
+    fn measurement(counter: u32) -> Measurement {
+        Measurement {
+            channel: 0,
+            position_m: 0.0,
+            road_m: 0.001,
+            counter,
+        }
+    }
+
+    #[test]
+    fn measurement_steps_and_status_every_k() {
+        let mut a = app();
+        assert_eq!(a.command(&Command::Start), code::OK);
+        let mut statuses = 0;
+        for k in 0..1000u32 {
+            let out = a.on_measurement(&measurement(k % 256)).unwrap();
+            assert_eq!(out.demand.counter, k % 256);
+            assert!(out.demand.force_n[0].is_finite());
+            assert_eq!(out.demand.mode, Mode::Running);
+            statuses += usize::from(out.status.is_some());
+        }
+        assert_eq!(statuses, 1000 / usize::from(STATUS_PERIOD_SAMPLES));
+        let c = a.counters();
+        assert_eq!(
+            (c.measurements, c.steps, c.missed, c.late),
+            (1000, 1000, 0, 0)
+        );
+        // The tyre pushes with its static load plus 250 N/mm · 1 mm (the rate limit allows
+        // 1000 N per sample).
+        let d = a.on_measurement(&measurement(1000 % 256)).unwrap().demand;
+        assert!((d.force_n[0] - (1667.7 + 250.0)).abs() < 1.0, "{d:?}");
+    }
+
+    #[test]
+    fn counter_jumps_count_missed_and_repeats_count_late() {
+        let mut a = app();
+        a.on_measurement(&measurement(250)).unwrap();
+        a.on_measurement(&measurement(254)).unwrap(); // 3 missed
+        a.on_measurement(&measurement(1)).unwrap(); // wraps: 2 missed
+        a.on_measurement(&measurement(1)).unwrap(); // repeated: late
+        a.on_measurement(&measurement(0)).unwrap(); // back: late
+        assert_eq!((a.counters().missed, a.counters().late), (5, 2));
+        // Three silent ticks, then the next counter: late (3 > 1 + 1).
+        for _ in 0..3 {
+            assert_eq!(a.on_tick(), None);
+        }
+        a.on_measurement(&measurement(1)).unwrap();
+        assert_eq!(a.counters().late, 3);
+        // Two ticks and a jump of 2: one missed, on time.
+        a.on_tick();
+        a.on_tick();
+        a.on_measurement(&measurement(3)).unwrap();
+        assert_eq!((a.counters().missed, a.counters().late), (6, 3));
+    }
+
+    #[test]
+    fn wrong_channel_is_malformed_and_does_not_feed_the_watchdog() {
+        let mut a = app();
+        a.command(&Command::Start);
+        let m = Measurement {
+            channel: 1,
+            ..measurement(0)
+        };
+        for _ in 0..20 {
+            assert_eq!(a.on_measurement(&m), Err(Ignored::Channel));
+            a.on_tick();
+        }
+        assert_eq!(a.counters().malformed, 20);
+        assert_eq!(a.controller().mode(), Mode::Fault);
+        assert_eq!(
+            a.on_aux(&MeasurementAux {
+                channel: 3,
+                force_n: 0.0,
+                speed_m_per_s: 0.0
+            }),
+            Err(Ignored::Channel)
+        );
+    }
+
+    #[test]
+    fn watchdog_trips_after_n_silent_ticks_and_ramps_to_safe() {
+        let mut a = app();
+        // Unarmed at boot: ticks do nothing.
+        for _ in 0..100 {
+            assert_eq!(a.on_tick(), None);
+        }
+        a.command(&Command::Start);
+        // Drive the demand well above the safe value: road 20 mm up (+5 kN).
+        for k in 0..50 {
+            let m = Measurement {
+                road_m: 0.02,
+                ..measurement(k)
+            };
+            a.on_measurement(&m).unwrap();
+        }
+        let high = a.controller().demand()[0];
+        assert!(high > 6000.0, "{high}");
+        // N - 1 silent ticks: nothing; the N-th trips and steps.
+        for _ in 0..WATCHDOG_SAMPLES - 1 {
+            assert_eq!(a.on_tick(), None);
+        }
+        let out = a.on_tick().expect("trip step");
+        assert_eq!(out.demand.mode, Mode::Fault);
+        assert!(out.demand.fault_latched);
+        assert_eq!(a.status().fault, fault::COMM_TIMEOUT);
+        assert!(a.status().link_lost);
+        assert_eq!(a.counters().comm_timeouts, 1);
+        assert_eq!(out.demand.counter, 50);
+        let per_step = SAFE_RAMP_N_PER_S * DT;
+        assert!((out.demand.force_n[0] - (high - per_step)).abs() < 0.5);
+        // Every further tick steps the ramp down to the safe demand and stays there.
+        let mut last = out.demand.force_n[0];
+        for _ in 0..1000 {
+            let d = a.on_tick().unwrap().demand;
+            assert!(d.force_n[0] <= last && d.force_n[0] >= SAFE_DEMAND_N);
+            last = d.force_n[0];
+        }
+        assert_eq!(last, SAFE_DEMAND_N);
+        assert_eq!(a.counters().comm_timeouts, 1);
+        // Measurements come back: still latched, the measurement steps, ticks stop stepping.
+        let out = a.on_measurement(&measurement(60)).unwrap();
+        assert_eq!(out.demand.mode, Mode::Fault);
+        assert_eq!(a.on_tick(), None);
+        assert!(!a.status().link_lost);
+        // Only a command clears it; then a start runs again.
+        assert_eq!(a.command(&Command::Start), code::WRONG_MODE);
+        assert_eq!(a.command(&Command::ClearFault), code::OK);
+        assert_eq!(a.command(&Command::ClearFault), code::WRONG_MODE);
+        assert_eq!(a.command(&Command::Start), code::OK);
+        assert_eq!(
+            a.on_measurement(&measurement(61)).unwrap().demand.mode,
+            Mode::Running
+        );
+        assert_eq!(a.status().fault, 0);
+        assert_eq!(a.counters().rejected, 2);
+    }
+
+    #[test]
+    fn idle_link_loss_ramps_without_a_trip() {
+        let mut a = app();
+        a.on_measurement(&measurement(0)).unwrap();
+        for _ in 0..WATCHDOG_SAMPLES - 1 {
+            assert_eq!(a.on_tick(), None);
+        }
+        let out = a.on_tick().unwrap();
+        assert_eq!(out.demand.mode, Mode::Idle);
+        assert_eq!(a.counters().comm_timeouts, 0);
+        assert_eq!(out.demand.force_n[0], SAFE_DEMAND_N);
+    }
+
+    #[test]
+    fn settings_and_parameters() {
+        let mut a = app();
+        assert_eq!(
+            a.command(&Command::SetWatchdog { seconds: 0.002 }),
+            code::OK
+        );
+        assert_eq!(a.watchdog().limit, 4);
+        assert_eq!(
+            a.command(&Command::SetWatchdog { seconds: f32::NAN }),
+            code::NOT_FINITE
+        );
+        assert_eq!(a.watchdog().limit, 4);
+        assert_eq!(
+            a.command(&Command::SetParam {
+                index: 100,
+                value: 5.0
+            }),
+            code::OK
+        );
+        assert_eq!(a.status_period(), 5);
+        assert_eq!(
+            a.command(&Command::SetParam {
+                index: 101,
+                value: 7.0
+            }),
+            code::OK
+        );
+        assert_eq!(a.watchdog().limit, 7);
+        // Controller parameters: prepared outside, swapped in.
+        let p = prepare_change(a.params(), 0, 3.0e5).unwrap();
+        assert_eq!(a.swap(p), code::OK);
+        assert_eq!(a.params().model.tyre[0].stiffness, 3.0e5);
+        let before = *a.params();
+        assert_eq!(
+            prepare_change(a.params(), 1, f32::NAN).map(|_| ()),
+            Err(code::NOT_FINITE)
+        );
+        assert_eq!(
+            prepare_change(a.params(), 8, 1.0e5).map(|_| ()),
+            Err(code::OUT_OF_RANGE)
+        );
+        assert_eq!(
+            prepare_change(a.params(), 200, 1.0).map(|_| ()),
+            Err(code::UNKNOWN_INDEX)
+        );
+        assert_eq!(*a.params(), before);
+    }
+}

@@ -1,0 +1,216 @@
+//! # mil-firmware: the MiL rig controller board's firmware
+//!
+//! An RTIC v2 application for the rig controller board's STM32F405RG (Cortex-M4F,
+//! `thumbv7em-none-eabihf`): the paper's tyre example on one hub actuator,
+//! `Controller<TyreModel<1>, 1>` at 2 kHz. Each measurement frame from the servo controller
+//! drives one [`model_core::Controller::step`]; the force demand goes back in the same
+//! interrupt. The cargo feature `qemu` builds the same application for QEMU's
+//! `netduinoplus2` machine, where CAN frames travel as SLCAN (Lawicel ASCII) lines over
+//! USART1. Only the transport, the clocks and the watchdog tick period differ between the
+//! two builds (the binary's `port` module); everything else is this library, which also
+//! builds and runs its unit tests on the host (`cargo test -p mil-firmware --lib`).
+//!
+//! ## Building, flashing, running
+//!
+//! ```sh
+//! # board
+//! cargo build -p mil-firmware --target thumbv7em-none-eabihf --release
+//! probe-rs run --chip STM32F405RGTx target/thumbv7em-none-eabihf/release/mil-firmware
+//! # QEMU
+//! cargo build -p mil-firmware --target thumbv7em-none-eabihf --release --features qemu
+//! qemu-system-arm -machine netduinoplus2 -nographic -monitor none \
+//!     -semihosting-config enable=on,target=native \
+//!     -serial tcp:127.0.0.1:PORT,server=on,wait=on,nodelay=on \
+//!     -icount shift=3,align=off -kernel target/thumbv7em-none-eabihf/release/mil-firmware
+//! python3 firmware/controller/qemu/smoke.py --build   # the SLCAN smoke test (qemu/README.md)
+//! ```
+//!
+//! `probe-rs run` (from `cargo install probe-rs-tools --locked`) flashes the ELF and prints
+//! the defmt log (RTT). `memory.x` (the workspace's) is copied by `build.rs`, which also
+//! links `defmt.x` into the board build (`cargo:rustc-link-arg-bins`); the QEMU build has no
+//! defmt at all. `-icount shift=3,align=off` makes the instruction figures deterministic (as
+//! step-bench); without `-icount` the firmware runs the same, only the figures become
+//! timing-dependent. Under `-icount ... sleep=off` guest time races ahead while the CPU
+//! waits for the host, which would fire the watchdog early: do not use `sleep=off` with the
+//! firmware.
+//!
+//! ## Tasks and priorities
+//!
+//! | task | priority | trigger | does |
+//! | --- | --- | --- | --- |
+//! | `can_rx` (board) / `usart_rx` (QEMU) | 3 (highest) | bxCAN FIFO 0 message pending (`CAN1_RX0`) / USART1 RXNE | decodes the frame; a measurement runs one controller step and queues the Demand frame (and every K-th step the Status frame) before returning; commands go to `configure` through a 4-deep channel (full: CommandAck `BUSY`) |
+//! | `watchdog` | 2 | TIM2 update | the communication watchdog tick (below) |
+//! | `configure` | 1 (software task) | a command in the channel | validates and applies one command, answers with a CommandAck |
+//! | `idle` | – | – | `wfi`; on the board it refreshes the stack high-water mark about once a second |
+//!
+//! The application state ([`application::Application`]: controller, counters, watchdog) and
+//! the transmit half of the transport are RTIC shared resources; priority 3 owns their
+//! ceiling, so the control path never waits for a lock, and the lower tasks hold them only
+//! for a step or a swap. A parameter change is validated outside any lock
+//! ([`application::prepare_change`] → `PreparedParams::new`, on a copy of the running set)
+//! and swapped in with `Controller::swap_params` under a short lock, i.e. between two steps;
+//! a rejected value changes nothing.
+//!
+//! ## Frame flow
+//!
+//! Frames are `mil-frames`' (DBC `firmware/frames/mil.dbc`, base ID 0x100), see [`link`] for
+//! what happens to each received frame:
+//!
+//! ```text
+//! servo  --Measurement (0x100), [MeasurementAux (0x108)]-->  board  --Demand (0x110)-->  servo
+//! tool   --Command (0x121)-->  board  --CommandAck (0x122)-->  tool
+//!                              board  --Status (0x120), every K steps (default 200: 10 Hz)-->
+//! ```
+//!
+//! - Demand: force (0.1 N), the measurement's counter echoed, mode, fault-latched,
+//!   amplitude- and rate-limited bits of that step. Encoded by [`link::demand_frame`] (the
+//!   same bytes as `mil_frames::encode_demand`, f32 only); a non-finite value is replaced by
+//!   the safe demand, so a NaN can never be transmitted (model-core never produces one).
+//! - Status: mode, fault causes, missed / late / malformed counts (saturating u16).
+//! - CommandAck: command and index echoed, result ([`params::code`]: 0 ok, below 128 a
+//!   `mil-frames` decode error such as 11 for a NaN value, from 128 the firmware's codes),
+//!   mode after the command.
+//! - Counters ([`application::Counters`]): *missed* from the measurement counter (a jump of k
+//!   counts k − 1); *late*: a measurement more than one tick later than its counter
+//!   implies, out of order (counter repeated or going back), or a demand frame that could not
+//!   be queued; *malformed*: frames in the MiL range that fail to decode (wrong length,
+//!   "not available" or out-of-range values, free IDs, remote frames, NaN commands) or carry
+//!   a channel other than 0: counted and ignored; *foreign*: frames outside the range,
+//!   extended IDs, board-to-host frames (ignored; only in the QEMU report).
+//!
+//! Board transport: CAN1 (PB9 TX, PB8 RX) through bxCAN at 1 Mbit/s (42 MHz APB1, 14 time
+//! quanta, sample point 85.7 %), hardware filter on base..base+0x3F into FIFO 0, three
+//! transmit mailboxes (when all are busy bxCAN replaces a pending lower-priority frame:
+//! counted). QEMU transport: SLCAN over USART1 (QEMU `-serial` 0), RX by the RXNE interrupt,
+//! TX by blocking writes at the end of each handler (QEMU 7.2 never raises TXE).
+//!
+//! ## SLCAN (QEMU build)
+//!
+//! The host talks Lawicel ASCII over the TCP socket (`\r`-terminated lines; python-can's
+//! `slcan` interface with `channel="socket://127.0.0.1:PORT"` works too):
+//!
+//! 1. Handshake: bytes sent before the firmware enables USART1 are lost, so repeat a
+//!    command until it is answered, e.g. `V\r` every 200 ms until `V0101\r` arrives (then
+//!    drain the extra answers), then `O\r` (answer `\r`). A frame line also opens the
+//!    channel, so python-can 4.6's `slcan` interface works even when its opening lines are
+//!    lost (checked: Start, 20 lockstep samples, `shutdown()` → report, exit 0; its
+//!    `get_version()` right after opening may then return `(None, None)`).
+//! 2. Frames: `tIIILDD..\r` (standard data frames, upper- or lower-case hex). Measurement
+//!    lines are not acknowledged (no `z\r`); the firmware answers each with its Demand line
+//!    `t1106DDDDDDDDCCFF\r`, followed every K steps by a Status line `t1208...\r`, and each
+//!    Command line with a CommandAck line `t1224...\r`. In lockstep the host sends one
+//!    measurement and reads lines until the Demand with its counter arrives.
+//! 3. Other commands: `C`, `S0`–`S9`, `sXXYY`, `Z0`/`Z1`, `L` and an empty line → `\r`;
+//!    `v` → `v0101\r`; `N` → `N0405\r`; `F` → `F00\r`; a line that does not parse → BEL
+//!    (`\x07`). Remote and extended frames are counted, not answered.
+//! 4. End of run: `C\r` while the channel is open (python-can's shutdown) answers `\r`,
+//!    prints the report on semihosting stdout (counters, instructions per control step,
+//!    stack high-water mark, watchdog tick) and exits QEMU with status 0. A `C` before `O`
+//!    (python-can sends one while opening) is only answered.
+//!
+//! ## The communication watchdog
+//!
+//! A periodic tick counts the ticks since the last valid measurement (channel 0, decoded
+//! without error). After N ticks without one (N = 10 by default; `SetWatchdog` with the
+//! timeout in seconds of sample time, N = round(s · 2000), 2 ≤ N ≤ 10 000, so 0 is refused;
+//! or parameter index 101 with N itself) the link is lost: a Running controller is tripped
+//! with [`application::fault::COMM_TIMEOUT`] (bit 4, latched until ClearFault), and from then
+//! on every tick steps the controller itself, so its demand ramps to the safe demand at the
+//! safe ramp rate, and transmits that Demand frame (counter counting on), until measurements
+//! return. In Idle a lost link only ramps (no trip). The watchdog is armed once a
+//! measurement has been seen or the controller runs, so a board on a silent bus stays
+//! quiet after boot.
+//!
+//! - Board: TIM2 ticks at the sample period (500 µs), so N samples = N · 0.5 ms (5 ms by
+//!   default), unsynchronised with the servo controller's clock (hence N ≥ 2).
+//! - QEMU: QEMU clocks its timers at a fixed rate whatever RCC says, emulates far slower
+//!   than real time in lockstep (about 360 samples/s over SLCAN, two lines per sample), and
+//!   its virtual time is not the rig's time. A tick of one sample period would trip on
+//!   every lockstep sample. So the tick period is a build constant,
+//!   [`config::QEMU_TICK_US`] = 50 ms of QEMU virtual time (100 sample periods), with TIM2's
+//!   actual rate measured against SysTick at start-up (QEMU's SysTick runs at 168 MHz of
+//!   virtual time). With N = 10 the trip comes after 0.5 s of virtual time without a
+//!   measurement (about 0.8 s of wall time at `-icount shift=3`), far beyond any lockstep
+//!   gap. Everything the watchdog does is counted in ticks, not time: a test stops the
+//!   measurements and counts the Demand frames the ticks send (the N-th silent tick trips
+//!   and sends the first one; each further tick ramps by `safe_ramp_rate · dt` = 25 N).
+//!   The logic itself is tick-exact and unit-tested on the host
+//!   ([`application::Application::on_tick`]).
+//!
+//! ## Safe state on panic and HardFault
+//!
+//! There is no `unwrap`, `expect`, indexing or division that can panic in the control path
+//! (clippy denies them crate-wide), and no heap. Should a panic or a HardFault happen anyway,
+//! the binary's `fatal` module disables interrupts, writes one Demand frame with the default
+//! safe demand (1667.7 N, mode Fault, fault flag) straight into a bxCAN mailbox (aborting
+//! pending frames if all three are busy) or, in QEMU, as an SLCAN line on USART1, then:
+//! - board: logs the cause over defmt-rtt and halts. No further demand frames come, so the
+//!   servo controller's own watchdog (missing demands) takes the actuator to its safe
+//!   state; the last demand it received is the safe one. A reset restarts the board in Idle
+//!   with the demand at the safe value.
+//! - QEMU: prints `mil-firmware FAILED: <cause>` on semihosting stderr and exits QEMU with
+//!   status 1 (never hangs, unlike panic-probe).
+//!
+//! ## Fault bits (Status `FaultCauses`, [`application::fault`])
+//!
+//! | bit | name | source |
+//! | --- | --- | --- |
+//! | 0 | `INVALID_INPUT` | model-core: a non-finite input, or a position/road beyond ±1 m |
+//! | 1 | `NUMERICAL` | model-core: a non-finite value in the model or the command filter |
+//! | 2, 3 | reserved | left free for model-core |
+//! | 4 | `COMM_TIMEOUT` | firmware: no valid measurement for N watchdog ticks while Running |
+//!
+//! All are latched (mode Fault, demand ramps to the safe demand) until a ClearFault command
+//! (Fault → Idle); a Start then runs the model again from rest.
+//!
+//! ## Configuration defaults ([`config`])
+//!
+//! Tyre: k_t 2.5e5 N/m, c_t 500 N s/m, static load 1667.7 N, lift-off, 500 Hz velocity
+//! low-pass (`TyreParams::PAPER`); no command filter; dt = 1/2000 s; demand limits −1000 N ..
+//! 12 000 N, rate 2e6 N/s; safe demand 1667.7 N, safe ramp 5e4 N/s (as
+//! `host-tools/mil/examples/sim/tyre.toml`); watchdog N = 10; status every K = 200 steps.
+//! Commands: 1 Start (Idle → Running), 2 Stop, 3 ClearFault, 4 SetParam (index and value as
+//! in [`params`]), 5 SetWatchdog (seconds).
+//!
+//! ## Measured (QEMU 7.2, `-icount shift=3`, Rust 1.95, release; `qemu/smoke.py`, 3201 samples)
+//!
+//! | figure | value |
+//! | --- | --- |
+//! | control path: CAN frame received → Demand frame encoded (decode, step with counters, encode) | 515 instructions mean (508–544; target ≤ 1000) |
+//! | parts | decode 180, step 283, encode 53 |
+//! | with QEMU's SLCAN transport (last byte read → Demand line queued) | 1043 mean (1021–1091; SLCAN parse 377 and format 151 stand in for the bxCAN FIFO read and mailbox write) |
+//! | stack high-water mark (stack painting) | 3.1 KiB (QEMU run: 3120 B of the 127 KiB region) |
+//! | board ELF: flash (vector table + .text + .rodata + .data) | 25 404 B of 1 MiB |
+//! | board ELF: static RAM (.data + .bss + .uninit, incl. the 1 KiB RTT buffer) | 1 704 B of 128 KiB |
+//! | QEMU ELF: flash / static RAM | 61 352 B / 828 B (core::fmt for the report) |
+//!
+//! Sizes: `llvm-size -A target/thumbv7em-none-eabihf/release/mil-firmware`. The figures
+//! are instructions, not cycles (QEMU models no pipeline or flash wait states); on the board
+//! the SysTick counts are core cycles and are logged over defmt every 20 000 samples.
+//!
+//! ## `unsafe`
+//!
+//! Denied crate-wide (`#![deny(unsafe_code)]`); the exceptions, each justified where it is:
+//! the HardFault handler (cortex-m-rt requires an `unsafe fn`), the stack scan (volatile
+//! reads of the painted stack region), and the fatal path's register access (stealing CAN1
+//! or USART1 after interrupts are off, raw register field writes).
+#![no_std]
+#![deny(unsafe_code)]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic
+    )
+)]
+
+#[cfg(test)]
+extern crate std;
+
+pub mod application;
+pub mod config;
+pub mod link;
+pub mod params;
+pub mod stats;

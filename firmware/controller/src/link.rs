@@ -1,0 +1,705 @@
+//! The frame layer between the transports and the [`Application`]: decoding received frames
+//! with `mil-frames`, encoding the demand, status and CommandAck frames, and the SLCAN
+//! session of the QEMU build. Shared by both builds; host-testable.
+//!
+//! # Received frames (either transport)
+//! | frame (`mil_frames::decode`) | action |
+//! | --- | --- |
+//! | Measurement, channel 0 | one controller step; the Demand (and every K-th step a Status) is queued at once |
+//! | MeasurementAux, channel 0 | force and speed stored for the next step |
+//! | Measurement or MeasurementAux of another channel | counted as malformed, ignored |
+//! | Command | forwarded to the configuration task, which answers with a CommandAck |
+//! | a Command frame that fails to decode (NaN value, unknown command, reserved bits, length) | counted as malformed; answered with a CommandAck whose result is the decode error's code (`CommandAck::rejecting`) |
+//! | any other frame in the MiL range that fails to decode (length, range, "not available", free ID, remote) | counted as malformed, ignored |
+//! | a frame outside the MiL range, an extended ID, or a board-to-host frame (Demand, Status, CommandAck: another board or an echo) | counted as foreign, ignored |
+
+use mil_frames::slcan::{self, SlcanLine};
+use mil_frames::{
+    decode, encode_command_ack, encode_demand, encode_status, CommandAck, CommandKind, DecodeError,
+    DemandFlags, Layout, Message, MessageKind, RawFrame, Status,
+};
+use model_core::Mode;
+
+use crate::application::{
+    Application, Command, Demand, Measurement, MeasurementAux, Output, StatusReport,
+};
+use crate::config::SAFE_DEMAND_N;
+
+/// The measurement counter's modulus (the DBC's `Counter` is 8 bits).
+pub const COUNTER_MODULUS: u32 = 256;
+
+/// The frame layout: the DBC's base ID (0x100) and factors.
+pub const LAYOUT: Layout = Layout::DEFAULT;
+
+/// Where frames go: bxCAN on the board, SLCAN lines over USART1 in QEMU.
+pub trait Transport {
+    /// Queues one frame for transmission; `false` if it could not be queued (dropped).
+    fn queue(&mut self, frame: &RawFrame) -> bool;
+}
+
+/// A command for the configuration task, with what its CommandAck echoes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Request {
+    /// Raw command number received (echoed).
+    pub command_raw: u8,
+    /// Raw index received (echoed).
+    pub index_raw: u8,
+    /// The decoded command, or the CommandAck result code of a frame that did not decode.
+    pub command: Result<Command, u8>,
+}
+
+/// What a received frame led to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Handled {
+    /// A measurement stepped the controller; its demand was queued.
+    Stepped,
+    /// Stored, counted or ignored: nothing to transmit.
+    Done,
+    /// A command for the configuration task.
+    Command(Request),
+}
+
+/// The model-core mode as the frames' mode (same values).
+pub fn wire_mode(mode: Mode) -> mil_frames::Mode {
+    match mode {
+        Mode::Idle => mil_frames::Mode::Idle,
+        Mode::Running => mil_frames::Mode::Running,
+        Mode::Fault => mil_frames::Mode::Fault,
+    }
+}
+
+/// The Demand frame of channel 0. A non-finite demand (which model-core never produces) is
+/// replaced by the safe demand with the fault flag set: a NaN is never transmitted.
+///
+/// This is the control path's encoder: the same bytes as `mil_frames::encode_demand` (a host
+/// test compares them over the whole f32 range), but in f32 and 32-bit integer arithmetic
+/// only. `encode_demand` rounds through f64, which the Cortex-M4F emulates in software (about
+/// 600 instructions against about 60 here). Bit positions, factor and limits still come from
+/// the DBC table (`mil_frames::dbc::demand`); the build fails if they change shape.
+pub fn demand_frame(d: &Demand) -> RawFrame {
+    let [force] = d.force_n;
+    let counter = (d.counter % COUNTER_MODULUS) as u8;
+    match demand_raw(force) {
+        Some(raw) => {
+            use mil_frames::dbc::demand as s;
+            let word = u64::from(raw as u32) << s::DEMAND.start_bit
+                | u64::from(counter) << s::COUNTER.start_bit
+                | (wire_mode(d.mode) as u64) << s::MODE.start_bit
+                | u64::from(d.fault_latched) << s::FAULT_LATCHED.start_bit
+                | u64::from(d.amplitude_limited & 1) << s::AMPLITUDE_LIMITED.start_bit
+                | u64::from(d.rate_limited & 1) << s::RATE_LIMITED.start_bit;
+            RawFrame {
+                id: DEMAND_ID,
+                len: s::MESSAGE.dlc,
+                data: word.to_le_bytes(),
+            }
+        }
+        None => safe_demand_frame(counter),
+    }
+}
+
+/// The Demand ID of channel 0.
+const DEMAND_ID: u16 = LAYOUT.base_id() + mil_frames::dbc::demand::MESSAGE.id_offset;
+
+// The fast demand encoder relies on this shape of the DBC's Demand message.
+const _: () = {
+    use mil_frames::dbc::demand as s;
+    assert!(s::DEMAND.start_bit == 0 && s::DEMAND.len == 32 && s::DEMAND.signed);
+    assert!(s::DEMAND.offset == 0.0);
+    assert!(s::DEMAND.raw_min >= i32::MIN as i64 && s::DEMAND.raw_max <= i32::MAX as i64);
+    assert!(s::COUNTER.len == 8 && s::MODE.len == 2 && s::FAULT_LATCHED.len == 1);
+    assert!(s::AMPLITUDE_LIMITED.len == 1 && s::RATE_LIMITED.len == 1);
+    assert!(s::MESSAGE.dlc <= 8);
+};
+
+/// The raw Demand count of `value` (N) as `encode_demand` computes it with the default
+/// layout: `round((value - offset) / factor)`, ties away from zero, saturated to the DBC's
+/// raw limits; `None` when `value` is not finite.
+pub fn demand_raw(value: f32) -> Option<i32> {
+    use mil_frames::dbc::demand::DEMAND as S;
+    if !value.is_finite() {
+        return None;
+    }
+    let x = (value - S.offset as f32) / S.factor as f32;
+    // `roundf` without libm: `as i32` truncates (saturating beyond ±2^31); below 2^24 both
+    // `t as f32` and `x - t` are exact, at or above it `x` is an integer and `frac` is 0.
+    let t = x as i32;
+    let frac = x - t as f32;
+    let r = if frac >= 0.5 {
+        t.saturating_add(1)
+    } else if frac <= -0.5 {
+        t.saturating_sub(1)
+    } else {
+        t
+    };
+    Some(r.clamp(S.raw_min as i32, S.raw_max as i32))
+}
+
+/// A Demand frame of channel 0 with the configured default safe demand, mode Fault and the
+/// fault flag: what the panic and HardFault handlers send. Always encodable (a finite
+/// constant); should encoding ever fail, an all-zero payload on the demand ID is returned
+/// (0 N, mode Idle), still a valid, finite frame.
+pub fn safe_demand_frame(counter: u8) -> RawFrame {
+    let frame = mil_frames::Demand {
+        channel: 0,
+        demand_n: SAFE_DEMAND_N,
+        counter,
+        flags: DemandFlags {
+            mode: mil_frames::Mode::Fault,
+            fault_latched: true,
+            amplitude_limited: false,
+            rate_limited: false,
+        },
+    };
+    match encode_demand(&LAYOUT, &frame) {
+        Ok(f) => f,
+        Err(_) => RawFrame {
+            id: LAYOUT.base_id() + 0x10,
+            len: MessageKind::Demand.dlc(),
+            data: [0; 8],
+        },
+    }
+}
+
+/// The Status frame. Late samples include the demand frames that could not be queued.
+pub fn status_frame(s: &StatusReport) -> RawFrame {
+    let c = &s.counters;
+    encode_status(
+        &LAYOUT,
+        &Status::saturating(wire_mode(s.mode), s.fault, c.missed, c.late, c.malformed),
+    )
+}
+
+/// The CommandAck frame.
+pub fn ack_frame(command_raw: u8, index_raw: u8, result: u8, mode: Mode) -> RawFrame {
+    encode_command_ack(
+        &LAYOUT,
+        &CommandAck {
+            command: command_raw,
+            index: index_raw,
+            result,
+            mode: wire_mode(mode),
+        },
+    )
+}
+
+/// Queues the frames of one step: the demand first (counted late when it cannot be queued),
+/// then the status.
+pub fn transmit<T: Transport>(app: &mut Application, out: &Output, tx: &mut T) {
+    if !tx.queue(&demand_frame(&out.demand)) {
+        app.count_tx_dropped();
+        app.count_late_demand();
+    }
+    if let Some(status) = &out.status {
+        if !tx.queue(&status_frame(status)) {
+            app.count_tx_dropped();
+        }
+    }
+}
+
+/// A decoded command as the application's command.
+fn command(c: &mil_frames::Command) -> Command {
+    match c.command {
+        CommandKind::Start => Command::Start,
+        CommandKind::Stop => Command::Stop,
+        CommandKind::ClearFault => Command::ClearFault,
+        CommandKind::SetParam => Command::SetParam {
+            index: u16::from(c.index),
+            value: c.value,
+        },
+        CommandKind::SetWatchdog => Command::SetWatchdog { seconds: c.value },
+    }
+}
+
+/// Handles one received frame (see the module docs).
+pub fn on_frame<T: Transport>(app: &mut Application, frame: &RawFrame, tx: &mut T) -> Handled {
+    on_frame_probed(app, frame, tx, &mut |_| {})
+}
+
+/// Where [`on_frame_probed`] calls its probe on a measurement.
+pub mod stage {
+    /// The frame is decoded.
+    pub const DECODED: usize = 0;
+    /// The controller has stepped.
+    pub const STEPPED: usize = 1;
+    /// The demand frame is encoded.
+    pub const ENCODED: usize = 2;
+    /// The demand frame is queued (the status, if any, follows).
+    pub const DEMAND_QUEUED: usize = 3;
+}
+
+/// [`on_frame`] with a probe called at the [`stage`] boundaries of a measurement (the
+/// firmware reads SysTick there to time the parts of the control path).
+pub fn on_frame_probed<T: Transport, P: FnMut(usize)>(
+    app: &mut Application,
+    frame: &RawFrame,
+    tx: &mut T,
+    probe: &mut P,
+) -> Handled {
+    match decode(&LAYOUT, frame) {
+        Ok(Message::Measurement(m)) => {
+            probe(stage::DECODED);
+            let m = Measurement {
+                channel: m.channel,
+                position_m: m.position_m,
+                road_m: m.road_m,
+                counter: u32::from(m.counter),
+            };
+            match app.on_measurement(&m) {
+                Ok(out) => {
+                    probe(stage::STEPPED);
+                    let demand = demand_frame(&out.demand);
+                    probe(stage::ENCODED);
+                    if !tx.queue(&demand) {
+                        app.count_tx_dropped();
+                        app.count_late_demand();
+                    }
+                    probe(stage::DEMAND_QUEUED);
+                    if let Some(status) = &out.status {
+                        if !tx.queue(&status_frame(status)) {
+                            app.count_tx_dropped();
+                        }
+                    }
+                    Handled::Stepped
+                }
+                Err(_) => Handled::Done,
+            }
+        }
+        Ok(Message::MeasurementAux(a)) => {
+            let _ = app.on_aux(&MeasurementAux {
+                channel: a.channel,
+                force_n: a.force_n,
+                speed_m_per_s: a.speed_m_s,
+            });
+            Handled::Done
+        }
+        Ok(Message::Command(c)) => Handled::Command(Request {
+            command_raw: c.command as u8,
+            index_raw: c.index,
+            command: Ok(command(&c)),
+        }),
+        Ok(Message::Demand(_) | Message::Status(_) | Message::CommandAck(_)) => {
+            app.count_foreign();
+            Handled::Done
+        }
+        Err(e) => rejected(app, frame, e),
+    }
+}
+
+/// A frame that did not decode: counted; a command frame gets a rejecting CommandAck.
+fn rejected(app: &mut Application, frame: &RawFrame, e: DecodeError) -> Handled {
+    if e.is_foreign() {
+        app.count_foreign();
+        return Handled::Done;
+    }
+    app.count_malformed();
+    match LAYOUT.classify(frame.id) {
+        Ok((MessageKind::Command, _)) => {
+            let ack = CommandAck::rejecting(frame, e, mil_frames::Mode::Idle);
+            Handled::Command(Request {
+                command_raw: ack.command,
+                index_raw: ack.index,
+                command: Err(ack.result),
+            })
+        }
+        _ => Handled::Done,
+    }
+}
+
+/// Handles any `embedded-can` frame (bxCAN's): a standard data frame goes to [`on_frame`],
+/// an extended or remote frame is counted ([`on_other_frame`]).
+pub fn on_any_frame<F: mil_frames::embedded_can::Frame, T: Transport, P: FnMut(usize)>(
+    app: &mut Application,
+    frame: &F,
+    tx: &mut T,
+    probe: &mut P,
+) -> Handled {
+    match RawFrame::try_from_frame(frame) {
+        Ok(raw) => on_frame_probed(app, &raw, tx, probe),
+        Err(_) if frame.is_remote_frame() => {
+            on_other_frame(app, remote_error(frame.id()));
+            Handled::Done
+        }
+        Err(e) => {
+            on_other_frame(app, e);
+            Handled::Done
+        }
+    }
+}
+
+/// A remote or extended frame from an SLCAN line (bxCAN gives them too): counted like
+/// `mil_frames::decode_frame` classifies it.
+pub fn on_other_frame(app: &mut Application, e: DecodeError) {
+    if e.is_foreign() {
+        app.count_foreign();
+    } else {
+        app.count_malformed();
+    }
+}
+
+/// SLCAN version reply digits (hardware, software) of the QEMU build's `V`.
+pub const SLCAN_VERSION: (u8, u8) = (1, 1);
+/// SLCAN serial number of the QEMU build's `N`.
+pub const SLCAN_SERIAL: u16 = 0x0405;
+
+/// The SLCAN side of the QEMU build: what a received line asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LineAction {
+    /// Send these reply bytes (`\r`, BEL, a version line).
+    Reply {
+        /// The reply buffer.
+        bytes: [u8; 8],
+        /// Bytes of `bytes` in use.
+        len: usize,
+    },
+    /// A standard data frame: handle it with [`on_frame`] (no reply: the board's answer is
+    /// its own frames).
+    Frame(RawFrame),
+    /// A remote or extended frame: count it with [`on_other_frame`] (no reply).
+    Other(DecodeError),
+    /// `C` after the channel had been open: reply OK; the QEMU build then prints its report
+    /// and ends the run.
+    Closed,
+}
+
+/// The SLCAN session: open/closed state and the replies to Lawicel commands.
+///
+/// Replies: `\r` to `O`, `L`, `C`, `S0`–`S9`, `sXXYY`, `Z0`/`Z1` and an empty line; `V` →
+/// `V0101\r`, `v` → `v0101\r`, `N` → `N0405\r`, `F` → `F00\r`; BEL to a line that does not
+/// parse. Frame lines are not acknowledged (no `z\r`: python-can ignores it and each byte
+/// costs QEMU time); they are answered by the board's own frames. A frame line is accepted
+/// also before `O` (the channel counts as open from the first frame on), because bytes sent
+/// before the firmware enabled its USART are lost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlcanSession {
+    open: bool,
+}
+
+impl SlcanSession {
+    /// A closed session.
+    pub const fn new() -> Self {
+        Self { open: false }
+    }
+
+    /// `true` once `O`/`L` or a frame was received (until `C`).
+    pub fn is_open(&self) -> bool {
+        self.open
+    }
+
+    /// The action for one line (without its `\r`).
+    pub fn on_line(&mut self, line: &[u8]) -> LineAction {
+        let mut bytes = [0u8; 8];
+        let written = match slcan::parse_line(line) {
+            Ok(SlcanLine::Frame(f)) => {
+                self.open = true;
+                return match RawFrame::try_from_frame(&f) {
+                    Ok(raw) => LineAction::Frame(raw),
+                    Err(_) if f.remote => LineAction::Other(remote_error(f.id)),
+                    Err(e) => LineAction::Other(e),
+                };
+            }
+            Ok(SlcanLine::Open | SlcanLine::ListenOnly) => {
+                self.open = true;
+                copy(slcan::OK, &mut bytes)
+            }
+            Ok(SlcanLine::Close) => {
+                if self.open {
+                    self.open = false;
+                    return LineAction::Closed;
+                }
+                copy(slcan::OK, &mut bytes)
+            }
+            Ok(
+                SlcanLine::Empty
+                | SlcanLine::SetBitrate { .. }
+                | SlcanLine::SetBtr { .. }
+                | SlcanLine::Timestamps(_),
+            ) => copy(slcan::OK, &mut bytes),
+            Ok(SlcanLine::Version) => {
+                slcan::format_version(SLCAN_VERSION.0, SLCAN_VERSION.1, &mut bytes).ok()
+            }
+            Ok(SlcanLine::FirmwareVersion) => {
+                slcan::format_version(SLCAN_VERSION.0, SLCAN_VERSION.1, &mut bytes)
+                    .ok()
+                    .inspect(|_| {
+                        if let Some(b) = bytes.first_mut() {
+                            *b = b'v';
+                        }
+                    })
+            }
+            Ok(SlcanLine::SerialNumber) => {
+                slcan::format_serial_number(SLCAN_SERIAL, &mut bytes).ok()
+            }
+            Ok(SlcanLine::StatusFlags) => slcan::format_status_flags(0, &mut bytes).ok(),
+            Err(_) => None,
+        };
+        match written {
+            Some(len) => LineAction::Reply { bytes, len },
+            None => {
+                let len = copy(slcan::ERROR, &mut bytes).unwrap_or(0);
+                LineAction::Reply { bytes, len }
+            }
+        }
+    }
+}
+
+/// The decode error of a remote frame: foreign outside the MiL range, else RemoteFrame.
+fn remote_error(id: mil_frames::embedded_can::Id) -> DecodeError {
+    match id {
+        mil_frames::embedded_can::Id::Standard(id) => match LAYOUT.classify(id.as_raw()) {
+            Err(e) => e,
+            Ok(_) => DecodeError::RemoteFrame,
+        },
+        mil_frames::embedded_can::Id::Extended(_) => DecodeError::ExtendedId,
+    }
+}
+
+fn copy(src: &[u8], dst: &mut [u8; 8]) -> Option<usize> {
+    let slot = dst.get_mut(..src.len())?;
+    slot.copy_from_slice(src);
+    Some(src.len())
+}
+
+/// The demand frame of the ack-less paths as an SLCAN line into `out`; the number of bytes.
+pub fn slcan_line(frame: &RawFrame, out: &mut [u8]) -> Option<usize> {
+    slcan::format_frame(frame, out).ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::code;
+    use mil_frames::{encode_command, encode_measurement};
+    use std::vec::Vec;
+
+    #[derive(Default)]
+    struct Sink {
+        frames: [Option<RawFrame>; 4],
+        n: usize,
+        refuse: bool,
+    }
+
+    impl Transport for Sink {
+        fn queue(&mut self, frame: &RawFrame) -> bool {
+            if self.refuse {
+                return false;
+            }
+            if let Some(slot) = self.frames.get_mut(self.n) {
+                *slot = Some(*frame);
+                self.n += 1;
+            }
+            true
+        }
+    }
+
+    fn measurement(counter: u8, road_m: f32) -> RawFrame {
+        encode_measurement(
+            &LAYOUT,
+            &mil_frames::Measurement {
+                channel: 0,
+                position_m: 0.0,
+                road_m,
+                counter,
+            },
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn measurement_to_demand() {
+        let mut app = Application::new(COUNTER_MODULUS).unwrap();
+        let mut sink = Sink::default();
+        assert_eq!(
+            on_frame(&mut app, &measurement(7, 0.001), &mut sink),
+            Handled::Stepped
+        );
+        assert_eq!(sink.n, 1);
+        let Ok(Message::Demand(d)) = decode(&LAYOUT, &sink.frames[0].unwrap()) else {
+            panic!("not a demand");
+        };
+        assert_eq!(d.counter, 7);
+        assert_eq!(d.flags.mode, mil_frames::Mode::Idle);
+        assert!((d.demand_n - SAFE_DEMAND_N).abs() < 0.1);
+        // A refused demand counts as late (and dropped).
+        sink.refuse = true;
+        on_frame(&mut app, &measurement(8, 0.001), &mut sink);
+        assert_eq!((app.counters().late, app.counters().tx_dropped), (1, 1));
+    }
+
+    #[test]
+    fn malformed_foreign_and_commands() {
+        let mut app = Application::new(COUNTER_MODULUS).unwrap();
+        let mut sink = Sink::default();
+        let mut short = measurement(0, 0.0);
+        short.len = 6;
+        assert_eq!(on_frame(&mut app, &short, &mut sink), Handled::Done);
+        let mut na = measurement(0, 0.0);
+        na.data[0..3].copy_from_slice(&[0, 0, 0x80]); // "not available" position
+        assert_eq!(on_frame(&mut app, &na, &mut sink), Handled::Done);
+        let foreign = RawFrame::from_parts(0x050, &[1, 2]).unwrap();
+        assert_eq!(on_frame(&mut app, &foreign, &mut sink), Handled::Done);
+        assert_eq!((app.counters().malformed, app.counters().foreign), (2, 1));
+        assert_eq!(sink.n, 0);
+        // A decodable command is forwarded.
+        let cmd = encode_command(
+            &LAYOUT,
+            &mil_frames::Command {
+                command: CommandKind::SetParam,
+                index: 1,
+                value: 600.0,
+            },
+        )
+        .unwrap();
+        assert_eq!(
+            on_frame(&mut app, &cmd, &mut sink),
+            Handled::Command(Request {
+                command_raw: 4,
+                index_raw: 1,
+                command: Ok(Command::SetParam {
+                    index: 1,
+                    value: 600.0
+                }),
+            })
+        );
+        // A NaN value is refused by the decoder and answered with its code.
+        let mut nan = cmd;
+        nan.data[4..8].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
+        assert_eq!(
+            on_frame(&mut app, &nan, &mut sink),
+            Handled::Command(Request {
+                command_raw: 4,
+                index_raw: 1,
+                command: Err(DecodeError::NotFinite.code()),
+            })
+        );
+        assert_eq!(app.counters().malformed, 3);
+        let ack = ack_frame(4, 1, code::OUT_OF_RANGE, Mode::Idle);
+        let Ok(Message::CommandAck(a)) = decode(&LAYOUT, &ack) else {
+            panic!("not an ack");
+        };
+        assert_eq!((a.command, a.index, a.result), (4, 1, code::OUT_OF_RANGE));
+    }
+
+    /// The fast demand encoder gives `encode_demand`'s bytes everywhere: a sweep over every
+    /// 997th f32 bit pattern (both signs, all exponents), ties and values near the limits.
+    #[test]
+    fn fast_demand_encoder_matches_mil_frames() {
+        let mut values: Vec<f32> = (0..=u32::MAX / 997)
+            .map(|i| f32::from_bits(i * 997))
+            .collect();
+        for k in -5000..5000 {
+            let base = k as f32 * 0.1;
+            values.extend([base, base + 0.05, base - 0.05, k as f32 * 80.0 + 0.05]);
+        }
+        values.extend([
+            400_000.0,
+            400_000.04,
+            400_000.06,
+            -400_000.06,
+            1.0e30,
+            -1.0e30,
+            f32::MAX,
+            f32::MIN,
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            1.5e-45,
+            0.049999997,
+            0.05,
+            -0.05,
+            0.15,
+            2.5e6,
+        ]);
+        let mut checked = 0;
+        for (i, v) in values.iter().enumerate() {
+            let d = Demand {
+                force_n: [*v],
+                counter: i as u32,
+                mode: [Mode::Idle, Mode::Running, Mode::Fault][i % 3],
+                fault_latched: i % 2 == 0,
+                amplitude_limited: (i % 5 == 0) as u8,
+                rate_limited: (i % 7 == 0) as u8,
+            };
+            let reference = encode_demand(
+                &LAYOUT,
+                &mil_frames::Demand {
+                    channel: 0,
+                    demand_n: *v,
+                    counter: (i % 256) as u8,
+                    flags: DemandFlags {
+                        mode: wire_mode(d.mode),
+                        fault_latched: d.fault_latched,
+                        amplitude_limited: d.amplitude_limited != 0,
+                        rate_limited: d.rate_limited != 0,
+                    },
+                },
+            );
+            match reference {
+                Ok(f) => {
+                    assert_eq!(demand_frame(&d), f, "value {v:e} ({:#010x})", v.to_bits());
+                    checked += 1;
+                }
+                Err(_) => {
+                    assert!(!v.is_finite());
+                    assert_eq!(demand_frame(&d), safe_demand_frame((i % 256) as u8));
+                }
+            }
+        }
+        assert!(checked > 4_000_000);
+    }
+
+    #[test]
+    fn safe_frame_and_nan_never_sent() {
+        let f = safe_demand_frame(3);
+        let Ok(Message::Demand(d)) = decode(&LAYOUT, &f) else {
+            panic!("not a demand");
+        };
+        assert!((d.demand_n - SAFE_DEMAND_N).abs() < 0.1);
+        assert!(d.flags.fault_latched);
+        let nan = Demand {
+            force_n: [f32::NAN],
+            counter: 3,
+            mode: Mode::Running,
+            fault_latched: false,
+            amplitude_limited: 0,
+            rate_limited: 0,
+        };
+        assert_eq!(demand_frame(&nan), f);
+    }
+
+    #[test]
+    fn slcan_session() {
+        let mut s = SlcanSession::new();
+        let reply = |a: LineAction| match a {
+            LineAction::Reply { bytes, len } => bytes[..len].to_vec(),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(reply(s.on_line(b"C")), b"\r"); // closed: just OK
+        assert_eq!(reply(s.on_line(b"S8")), b"\r");
+        assert_eq!(reply(s.on_line(b"")), b"\r");
+        assert_eq!(reply(s.on_line(b"V")), b"V0101\r");
+        assert_eq!(reply(s.on_line(b"v")), b"v0101\r");
+        assert_eq!(reply(s.on_line(b"N")), b"N0405\r");
+        assert_eq!(reply(s.on_line(b"F")), b"F00\r");
+        assert_eq!(reply(s.on_line(b"?")), b"\x07");
+        assert_eq!(reply(s.on_line(b"t10")), b"\x07");
+        assert!(!s.is_open());
+        assert_eq!(reply(s.on_line(b"O")), b"\r");
+        assert_eq!(reply(s.on_line(b"O")), b"\r");
+        let f = measurement(1, 0.0);
+        let mut line = [0u8; 32];
+        let n = slcan_line(&f, &mut line).unwrap();
+        assert_eq!(s.on_line(&line[..n - 1]), LineAction::Frame(f));
+        assert_eq!(
+            s.on_line(b"r1003"),
+            LineAction::Other(DecodeError::RemoteFrame)
+        );
+        assert_eq!(s.on_line(b"r0503"), LineAction::Other(DecodeError::Foreign));
+        assert_eq!(
+            s.on_line(b"T0000010021122"),
+            LineAction::Other(DecodeError::ExtendedId)
+        );
+        assert_eq!(s.on_line(b"C"), LineAction::Closed);
+        assert_eq!(reply(s.on_line(b"C")), b"\r");
+    }
+}

@@ -1,0 +1,288 @@
+//! The hardware of each build behind one small interface: clocks, the frame transport
+//! (transmit half [`Tx`], receive half [`Rx`]) and the watchdog tick timer [`Tick`].
+//!
+//! | | board (default) | QEMU (`--features qemu`) |
+//! | --- | --- | --- |
+//! | clocks | HSE 8 MHz → PLL → 168 MHz (APB1 42 MHz) | HSI 16 MHz (QEMU emulates no PLL) |
+//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX), 1 Mbit/s, FIFO0 interrupt `CAN1_RX0` | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes |
+//! | tick | TIM2 at the sample rate (2 kHz) | TIM2 every [`QEMU_TICK_US`](mil_firmware::config::QEMU_TICK_US) of QEMU time |
+
+use mil_firmware::link::Transport;
+
+/// What the tasks need from a transmit half besides [`Transport::queue`].
+pub trait Port: Transport {
+    /// Sends what was queued (QEMU: blocking USART writes; board: nothing, bxCAN's mailboxes
+    /// send by themselves).
+    fn flush(&mut self);
+}
+
+#[cfg(not(feature = "qemu"))]
+pub use board::*;
+#[cfg(feature = "qemu")]
+pub use qemu::*;
+
+/// The board: bxCAN on CAN1, TIM2 at the sample rate.
+#[cfg(not(feature = "qemu"))]
+mod board {
+    use bxcan::filter::Mask32;
+    use bxcan::{Fifo, Interrupt, StandardId};
+    use mil_firmware::config::SAMPLE_RATE_HZ;
+    use mil_firmware::link::{Transport, LAYOUT};
+    use mil_frames::RawFrame;
+    use stm32f4xx_hal::can::Can;
+    use stm32f4xx_hal::pac::{self, CAN1, TIM2};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::rcc::Config;
+    use stm32f4xx_hal::timer::{CounterHz, Event, Flag};
+
+    use super::Port;
+
+    /// The board's crystal (HSE).
+    pub const HSE_HZ: u32 = 8_000_000;
+    /// Core clock.
+    pub const SYSCLK_HZ: u32 = 168_000_000;
+    /// APB1 clock (bxCAN's clock).
+    pub const PCLK1_HZ: u32 = 42_000_000;
+    /// bxCAN bit timing for 1 Mbit/s at 42 MHz: prescaler 3 (14 MHz time quanta), 14 quanta
+    /// per bit = sync 1 + BS1 11 + BS2 2 (sample point 85.7 %), SJW 1:
+    /// `BTR = (SJW-1) << 24 | (BS2-1) << 20 | (BS1-1) << 16 | (BRP-1)`.
+    pub const CAN_BTR: u32 = (1 << 20) | (10 << 16) | 2;
+
+    /// Transmit half: bxCAN's three mailboxes.
+    pub struct Tx(bxcan::Tx<Can<CAN1>>);
+    /// Receive half: FIFO 0.
+    pub struct Rx(pub bxcan::Rx0<Can<CAN1>>);
+    /// The watchdog tick timer.
+    pub struct Tick(CounterHz<TIM2>);
+
+    impl Transport for Tx {
+        /// Queues into a free mailbox. When all three are busy, bxCAN replaces a pending
+        /// frame of lower priority (higher ID: a Status or CommandAck behind a Demand): that
+        /// frame is lost and reported as not queued; otherwise a full queue refuses the frame.
+        fn queue(&mut self, f: &RawFrame) -> bool {
+            let Some(id) = StandardId::new(f.id) else {
+                return false;
+            };
+            let Some(data) = bxcan::Data::new(f.payload()) else {
+                return false;
+            };
+            match self.0.transmit(&bxcan::Frame::new_data(id, data)) {
+                Ok(status) => status.dequeued_frame().is_none(),
+                Err(_) => false,
+            }
+        }
+    }
+
+    impl Port for Tx {
+        fn flush(&mut self) {}
+    }
+
+    impl Tick {
+        /// Clears the update interrupt flag.
+        pub fn clear(&mut self) {
+            self.0.clear_flags(Flag::Update);
+        }
+    }
+
+    /// The hardware after set-up.
+    pub struct Hardware {
+        /// Transmit half.
+        pub tx: Tx,
+        /// Receive half.
+        pub rx: Rx,
+        /// Tick timer, running, interrupt enabled.
+        pub tick: Tick,
+    }
+
+    /// Clocks, CAN1 and TIM2. `None` if a peripheral refuses its configuration.
+    pub fn init(dp: pac::Peripherals) -> Option<Hardware> {
+        let mut rcc = dp.RCC.freeze(
+            Config::hse(HSE_HZ.Hz())
+                .sysclk(SYSCLK_HZ.Hz())
+                .pclk1(PCLK1_HZ.Hz())
+                .pclk2((SYSCLK_HZ / 2).Hz()),
+        );
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let can = dp.CAN1.can((gpiob.pb9, gpiob.pb8), &mut rcc);
+        let mut can = bxcan::Can::builder(can)
+            .set_bit_timing(CAN_BTR)
+            .set_automatic_retransmit(true)
+            .leave_disabled();
+        // Hardware filter: the MiL range (base .. base + 0x3F); everything else never reaches
+        // the CPU. Frames inside it that are not ours are counted by the decoder.
+        let (first, _) = LAYOUT.id_range();
+        let id = StandardId::new(first)?;
+        let mask = StandardId::new(0x7C0)?;
+        can.modify_filters()
+            .enable_bank(0, Fifo::Fifo0, Mask32::frames_with_std_id(id, mask));
+        can.enable_interrupt(Interrupt::Fifo0MessagePending);
+        nb::block!(can.enable_non_blocking()).ok()?;
+        let (tx, rx0, _rx1) = can.split();
+        let mut tick = dp.TIM2.counter_hz(&mut rcc);
+        tick.start(SAMPLE_RATE_HZ.Hz()).ok()?;
+        tick.listen(Event::Update);
+        Some(Hardware {
+            tx: Tx(tx),
+            rx: Rx(rx0),
+            tick: Tick(tick),
+        })
+    }
+}
+
+/// QEMU: SLCAN over USART1, TIM2 measured against SysTick.
+#[cfg(feature = "qemu")]
+mod qemu {
+    use embedded_hal_nb::serial::Write as _;
+    use mil_firmware::config::QEMU_TICK_US;
+    use mil_firmware::link::{slcan_line, Transport};
+    use mil_frames::RawFrame;
+    use stm32f4xx_hal::pac::{self, TIM2, USART1};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::rcc::Config;
+    use stm32f4xx_hal::serial::{self, Serial};
+    use stm32f4xx_hal::timer::{Counter, Event, Flag};
+
+    use super::Port;
+
+    /// QEMU's SysTick rate in its virtual time (the machine's core clock, whatever RCC says).
+    pub const QEMU_SYSTICK_HZ: f64 = 168.0e6;
+    /// Longest SLCAN line with its `\r`.
+    const LINE: usize = mil_frames::slcan::MAX_LINE + 1;
+
+    /// Transmit half: lines are formatted into a buffer, [`Port::flush`] writes them.
+    pub struct Tx {
+        usart: serial::Tx<USART1, u8>,
+        buf: [u8; 4 * LINE],
+        len: usize,
+    }
+    /// Receive half.
+    pub struct Rx(pub serial::Rx<USART1, u8>);
+    /// The watchdog tick timer (1 MHz nominal counter; QEMU clocks it faster).
+    pub struct Tick(Counter<TIM2, 1_000_000>);
+
+    impl Tx {
+        /// Appends raw bytes (SLCAN replies); flushes first when the buffer is full.
+        pub fn write(&mut self, bytes: &[u8]) {
+            if self.len + bytes.len() > self.buf.len() {
+                self.flush();
+            }
+            if let Some(dst) = self.buf.get_mut(self.len..self.len + bytes.len()) {
+                dst.copy_from_slice(bytes);
+                self.len += bytes.len();
+            }
+        }
+    }
+
+    impl Transport for Tx {
+        /// Formats the frame as an SLCAN line into the buffer (that is "queued"; the write
+        /// follows in [`Port::flush`]).
+        fn queue(&mut self, frame: &RawFrame) -> bool {
+            if self.len + LINE > self.buf.len() {
+                self.flush();
+            }
+            let Some(out) = self.buf.get_mut(self.len..) else {
+                return false;
+            };
+            match slcan_line(frame, out) {
+                Some(n) => {
+                    self.len += n;
+                    true
+                }
+                None => false,
+            }
+        }
+    }
+
+    impl Port for Tx {
+        /// Blocking writes (QEMU 7.2 never raises TXE interrupts).
+        fn flush(&mut self) {
+            let n = self.len;
+            self.len = 0;
+            for &b in self.buf.get(..n).unwrap_or(&[]) {
+                // The only error QEMU's USART can return is none; on silicon a write error
+                // drops the byte.
+                let _ = nb::block!(self.usart.write(b));
+            }
+        }
+    }
+
+    impl Tick {
+        /// Clears the update interrupt flag.
+        pub fn clear(&mut self) {
+            self.0.clear_flags(Flag::Update);
+        }
+    }
+
+    /// How the tick timer was set up.
+    #[derive(Clone, Copy, Debug)]
+    pub struct TickInfo {
+        /// TIM2 counts per SysTick count, measured at start-up.
+        pub timer_per_systick: f64,
+        /// TIM2 counts per tick (auto-reload + 1).
+        pub timer_counts: u32,
+        /// The tick period this gives in QEMU's virtual time (µs).
+        pub period_us: f64,
+    }
+
+    /// The hardware after set-up.
+    pub struct Hardware {
+        /// Transmit half.
+        pub tx: Tx,
+        /// Receive half, RXNE interrupt enabled.
+        pub rx: Rx,
+        /// Tick timer, running, interrupt enabled.
+        pub tick: Tick,
+        /// The tick's calibration.
+        pub tick_info: TickInfo,
+    }
+
+    /// Clocks (HSI), USART1 and TIM2. `None` if a peripheral refuses its configuration.
+    pub fn init(dp: pac::Peripherals) -> Option<Hardware> {
+        let mut rcc = dp.RCC.freeze(Config::hsi());
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let serial = Serial::new(
+            dp.USART1,
+            (gpioa.pa9, gpioa.pa10),
+            serial::config::Config::default().baudrate(115_200.bps()),
+            &mut rcc,
+        )
+        .ok()?;
+        let (usart, mut rx) = serial.split();
+        // TIM2 runs at a rate of QEMU's choosing: measure it against SysTick (168 MHz in
+        // virtual time) over a busy wait, then program the tick for QEMU_TICK_US.
+        let mut tick = dp.TIM2.counter::<1_000_000>(&mut rcc);
+        tick.start(1_000_000_000.micros()).ok()?;
+        let c0 = tick.now().ticks();
+        let s0 = crate::clock::now();
+        cortex_m::asm::delay(200_000);
+        let c1 = tick.now().ticks();
+        let s1 = crate::clock::now();
+        let systick = f64::from(crate::clock::elapsed(s0, s1)).max(1.0);
+        let measured = f64::from(c1.wrapping_sub(c0)) / systick;
+        // QEMU 7.2 clocks its STM32 timers at 1 GHz before the prescaler (here 16 - 1).
+        let timer_per_systick = if measured > 0.0 {
+            measured
+        } else {
+            1.0e9 / 16.0 / QEMU_SYSTICK_HZ
+        };
+        let wanted = f64::from(QEMU_TICK_US) * 1.0e-6 * QEMU_SYSTICK_HZ * timer_per_systick;
+        let timer_counts = (wanted as u32).max(2);
+        tick.start(timer_counts.micros()).ok()?;
+        tick.listen(Event::Update);
+        rx.listen();
+        Some(Hardware {
+            tx: Tx {
+                usart,
+                buf: [0; 4 * LINE],
+                len: 0,
+            },
+            rx: Rx(rx),
+            tick: Tick(tick),
+            tick_info: TickInfo {
+                timer_per_systick,
+                timer_counts,
+                period_us: f64::from(timer_counts) / timer_per_systick / QEMU_SYSTICK_HZ * 1.0e6,
+            },
+        })
+    }
+}

@@ -1,0 +1,228 @@
+//! Starting the QEMU build of the firmware.
+
+use std::io::{self, Read};
+use std::net::{Ipv4Addr, SocketAddr, TcpListener};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crate::slcan::SlcanTcp;
+
+/// The command that builds the firmware ELF [`find_firmware_elf`] looks for.
+pub const FIRMWARE_BUILD_COMMAND: &str =
+    "cargo build -p mil-firmware --target thumbv7em-none-eabihf --release --features qemu";
+
+/// The QEMU build of the firmware (`thumbv7em-none-eabihf/release/mil-firmware`) under
+/// `$CARGO_TARGET_DIR`, else under `<workspace>/target`; `None` if neither exists.
+pub fn find_firmware_elf() -> Option<PathBuf> {
+    let tail = Path::new("thumbv7em-none-eabihf/release/mil-firmware");
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .map(|t| {
+            if t.is_relative() {
+                workspace.join(t)
+            } else {
+                t
+            }
+        })
+        .into_iter()
+        .chain([workspace.join("target")])
+        .map(|t| t.join(tail))
+        .find(|p| p.is_file())
+}
+
+/// How to start QEMU.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct QemuOptions {
+    /// The QEMU binary (default `qemu-system-arm`).
+    pub program: PathBuf,
+    /// `Some(S)` adds `-icount shift=S,align=off` (deterministic instruction counts for the
+    /// firmware's SysTick-based figures); `None` (default) runs QEMU without `-icount`.
+    /// Lockstep works with either (`shared/embedded-notes.md`). `sleep=off` is not
+    /// offered: with it guest time races ahead of wall time while the guest waits for the
+    /// host, so the firmware's watchdog tick would trip between lockstep samples.
+    pub icount_shift: Option<u8>,
+    /// How long to wait for the TCP connection and the SLCAN handshake.
+    pub open_timeout: Duration,
+}
+
+impl Default for QemuOptions {
+    fn default() -> Self {
+        Self {
+            program: PathBuf::from("qemu-system-arm"),
+            icount_shift: None,
+            open_timeout: Duration::from_secs(30),
+        }
+    }
+}
+
+/// What QEMU printed and how it ended.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct QemuOutput {
+    /// Exit status (`None`: still running when it was killed or not waited for).
+    pub status: Option<ExitStatus>,
+    /// Standard output: the firmware's semihosting report.
+    pub stdout: String,
+    /// Standard error: QEMU's messages.
+    pub stderr: String,
+}
+
+/// A running QEMU `netduinoplus2` with the firmware; killed on drop.
+///
+/// Its USART1 is `-serial tcp:127.0.0.1:PORT,server=on,wait=on,nodelay=on` on a free port
+/// (found by binding port 0); stdout and stderr are captured ([`Qemu::output`]).
+#[derive(Debug)]
+pub struct Qemu {
+    child: Child,
+    port: u16,
+    stdout: Arc<Mutex<Vec<u8>>>,
+    stderr: Arc<Mutex<Vec<u8>>>,
+    readers: Vec<JoinHandle<()>>,
+}
+
+fn capture(mut from: impl Read + Send + 'static, into: Arc<Mutex<Vec<u8>>>) -> JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut chunk = [0u8; 4096];
+        while let Ok(n) = from.read(&mut chunk) {
+            if n == 0 {
+                break;
+            }
+            if let Ok(mut v) = into.lock() {
+                v.extend_from_slice(&chunk[..n]);
+            }
+        }
+    })
+}
+
+impl Qemu {
+    /// Starts QEMU with the firmware `elf`, connects to its serial port and opens the SLCAN
+    /// channel ([`SlcanTcp::open`]).
+    ///
+    /// # Errors
+    /// QEMU could not be started (not installed: `apt-get install -y qemu-system-arm`), the
+    /// connection or the handshake failed; QEMU's stderr is in the message.
+    pub fn spawn(elf: &Path, options: &QemuOptions) -> io::Result<(Qemu, SlcanTcp)> {
+        let port = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?
+            .local_addr()?
+            .port();
+        let mut cmd = Command::new(&options.program);
+        cmd.args([
+            "-machine",
+            "netduinoplus2",
+            "-nographic",
+            "-monitor",
+            "none",
+        ])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .arg("-serial")
+        .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"));
+        if let Some(shift) = options.icount_shift {
+            cmd.arg("-icount").arg(format!("shift={shift},align=off"));
+        }
+        cmd.arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        let mut child = cmd.spawn().map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!(
+                    "cannot start {}: {e} (install it: apt-get install -y qemu-system-arm)",
+                    options.program.display()
+                ),
+            )
+        })?;
+        let stdout = Arc::new(Mutex::new(Vec::new()));
+        let stderr = Arc::new(Mutex::new(Vec::new()));
+        let mut readers = Vec::new();
+        if let Some(out) = child.stdout.take() {
+            readers.push(capture(out, stdout.clone()));
+        }
+        if let Some(err) = child.stderr.take() {
+            readers.push(capture(err, stderr.clone()));
+        }
+        let mut qemu = Qemu {
+            child,
+            port,
+            stdout,
+            stderr,
+            readers,
+        };
+        let addr = SocketAddr::from((Ipv4Addr::LOCALHOST, port));
+        let link = SlcanTcp::connect(addr, options.open_timeout).and_then(|mut link| {
+            link.open(options.open_timeout)?;
+            Ok(link)
+        });
+        match link {
+            Ok(link) => Ok((qemu, link)),
+            Err(e) => {
+                let _ = qemu.child.kill();
+                let out = qemu.output();
+                Err(io::Error::new(
+                    e.kind(),
+                    format!("QEMU on port {port}: {e}; stderr: {}", out.stderr.trim()),
+                ))
+            }
+        }
+    }
+
+    /// The TCP port of the firmware's USART1.
+    pub fn port(&self) -> u16 {
+        self.port
+    }
+
+    /// What QEMU printed so far (status not set).
+    pub fn output(&self) -> QemuOutput {
+        let text = |b: &Arc<Mutex<Vec<u8>>>| {
+            b.lock()
+                .map(|v| String::from_utf8_lossy(&v).into_owned())
+                .unwrap_or_default()
+        };
+        QemuOutput {
+            status: None,
+            stdout: text(&self.stdout),
+            stderr: text(&self.stderr),
+        }
+    }
+
+    /// Waits up to `timeout` for QEMU to exit (after [`SlcanTcp::close`] the QEMU build
+    /// reports and exits), kills it if it has not, and returns its output and status
+    /// (`None` if it had to be killed).
+    ///
+    /// # Errors
+    /// Waiting on the process failed.
+    pub fn finish(mut self, timeout: Duration) -> io::Result<QemuOutput> {
+        let deadline = Instant::now() + timeout;
+        let status = loop {
+            if let Some(s) = self.child.try_wait()? {
+                break Some(s);
+            }
+            if Instant::now() >= deadline {
+                self.child.kill()?;
+                self.child.wait()?;
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        for r in self.readers.drain(..) {
+            let _ = r.join();
+        }
+        Ok(QemuOutput {
+            status,
+            ..self.output()
+        })
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
