@@ -16,7 +16,7 @@ use mil_firmware::application::fault::COMM_TIMEOUT;
 use mil_firmware::config::{SAFE_DEMAND_N, SAFE_RAMP_N_PER_S, TYRE};
 use mil_frames::{encode_command, Command, CommandKind, Message};
 use mil_identify::band_limited_noise;
-use mil_rig::harness::{run, Board, Instrumentation};
+use mil_rig::harness::{run, Board, Histories, Instrumentation};
 use mil_rig::metrics::compare;
 use mil_rig::rigs::{paper_tyre_part, tyre_input};
 use model_core::{Mode, ModelInput};
@@ -66,23 +66,30 @@ fn finish(qemu: Qemu, board: RemoteBoard<SlcanTcp>) -> String {
 /// 3 s of pink road noise (1 mm RMS, 0.5–50 Hz) at 2 kHz: the firmware in QEMU closes the
 /// loop around the simulated tyre rig; every demand frame equals the host mirror's bit for
 /// bit, the controller runs throughout, and the MiL force tracks the emulated force.
-#[test]
-fn lockstep_with_the_rig_is_bit_exact() {
-    let (qemu, mut board) = start_qemu();
-    let road = vec![band_limited_noise(0.5, 50.0, 3.0, FS, 1e-3, true, 7)];
+/// The paper's tyre rig (RK4 at 100 µs) driven by `board` over `road` (m) at [`FS`], from rest
+/// at the static load.
+fn run_tyre_rig<B: Board<1>>(board: &mut B, road: &[Vec<f64>]) -> Histories {
     let mut parts = vec![paper_tyre_part(1e-4).unwrap()];
-    let t0 = Instant::now();
     let (h, _) = run(
-        &mut board,
+        board,
         &mut parts,
         &Instrumentation::default(),
         FS,
-        &road,
+        road,
         &[f64::from(TYRE.static_load)],
         tyre_input,
         |_| {},
     )
     .unwrap();
+    h
+}
+
+#[test]
+fn lockstep_with_the_rig_is_bit_exact() {
+    let (qemu, mut board) = start_qemu();
+    let road = vec![band_limited_noise(0.5, 50.0, 3.0, FS, 1e-3, true, 7)];
+    let t0 = Instant::now();
+    let h = run_tyre_rig(&mut board, &road);
     let wall = t0.elapsed().as_secs_f64();
     let n = h.len();
     let mismatches = board.mismatches();
@@ -135,18 +142,7 @@ fn lockstep_with_the_rig_is_bit_exact() {
         mil_firmware::config::DT,
     )
     .unwrap();
-    let mut parts = vec![paper_tyre_part(1e-4).unwrap()];
-    let (reference, _) = run(
-        &mut host,
-        &mut parts,
-        &Instrumentation::default(),
-        FS,
-        &road,
-        &[f64::from(TYRE.static_load)],
-        tyre_input,
-        |_| {},
-    )
-    .unwrap();
+    let reference = run_tyre_rig(&mut host, &road);
     let host_nrms = compare(
         &reference.mil_force[0],
         &reference.emulated_force[0],
