@@ -184,12 +184,6 @@ enum RegimeTest {
 /// RK4 alone. The half car on four posts needs 24.
 const MAX_COLS: usize = 40;
 
-/// `a · b` of two rows over the extended vector `ξ`, zero-padded to `W`.
-#[inline]
-fn dot_ext<const W: usize>(a: &[f64; W], b: &[f64; W]) -> f64 {
-    dot(a, b)
-}
-
 /// `M ξ` for a square matrix `M` stored by columns (`m[j]` multiplies `ξ_j`), over the
 /// first `used` columns: fixed-length column updates (vector instructions, no horizontal
 /// sums, no bounds checks). The exact steps' inner loop.
@@ -241,10 +235,7 @@ macro_rules! with_linear {
 ///   quantities there (the road ramps inside `ξ`, as `G` integrates the road rate), so the
 ///   end of a step is tested without building its `ξ`.
 struct LinearModel<const W: usize> {
-    states: usize,
-    cols: usize,
-    channels: usize,
-    inputs: usize,
+    shape: Shape,
     /// `[[A, B], [0, S]]` (cols × cols; `S` ramps the road with its rate), balanced:
     /// `D⁻¹ G D` with `D = diag(balance)`.
     generator: Vec<f64>,
@@ -269,12 +260,18 @@ struct LinearModel<const W: usize> {
     product: Vec<f64>,
 }
 
-/// A [`LinearModel`]'s parts as the construction finds them (rows of `cols`).
-struct LinearParts {
+/// The sizes of a [`LinearModel`]: `ξ` has `states + channels + 2 inputs + 1 = cols` entries.
+#[derive(Clone, Copy, Debug)]
+struct Shape {
     states: usize,
     cols: usize,
     channels: usize,
     inputs: usize,
+}
+
+/// A [`LinearModel`]'s parts as the construction finds them (rows of `cols`).
+struct LinearParts {
+    shape: Shape,
     generator: Vec<f64>,
     balance: Vec<f64>,
     /// `3 channels × cols`, row-major.
@@ -287,14 +284,15 @@ impl LinearParts {
     /// The smallest padded width that holds `ξ` and both stacked matrices' rows.
     fn width(&self) -> usize {
         let regime = self.regime.len();
-        self.cols
-            .max(regime + 3 * self.channels)
-            .max(self.states + regime)
+        self.shape
+            .cols
+            .max(regime + 3 * self.shape.channels)
+            .max(self.shape.states + regime)
     }
 
     /// The model with its rows zero-padded to `W` (≥ [`LinearParts::width`]).
     fn padded<const W: usize>(self) -> LinearModel<W> {
-        let cols = self.cols;
+        let cols = self.shape.cols;
         let pad = |r: &[f64]| -> [f64; W] {
             let mut e = [0.0; W];
             copy(&mut e, r);
@@ -315,10 +313,7 @@ impl LinearParts {
             }
         }
         LinearModel {
-            states: self.states,
-            cols,
-            channels: self.channels,
-            inputs: self.inputs,
+            shape: self.shape,
             generator: self.generator,
             balance: self.balance,
             regime,
@@ -341,7 +336,7 @@ impl<const W: usize> LinearModel<W> {
     /// series of degree 18 at norm <= 1/2), then the stacked step matrix `[Φ Γ; R e^{Gh}]`
     /// un-balanced. False (and no step) if the result is not finite.
     fn discretise(&mut self, h: f64) -> bool {
-        let p = self.cols;
+        let p = self.shape.cols;
         let norm = (0..p)
             .map(|j| {
                 (0..p)
@@ -397,10 +392,14 @@ impl<const W: usize> LinearModel<W> {
         let mut matrix = [[0.0; W]; W];
         for (j, column) in matrix.iter_mut().enumerate().take(p) {
             let exp_column = |i: usize| self.exp.get(i * p + j).copied().unwrap_or(0.0);
-            for (i, c) in column.iter_mut().enumerate().take(self.states) {
+            for (i, c) in column.iter_mut().enumerate().take(self.shape.states) {
                 *c = exp_column(i);
             }
-            for (r, c) in self.regime.iter().zip(column.iter_mut().skip(self.states)) {
+            for (r, c) in self
+                .regime
+                .iter()
+                .zip(column.iter_mut().skip(self.shape.states))
+            {
                 *c = r
                     .iter()
                     .take(p)
@@ -417,14 +416,14 @@ impl<const W: usize> LinearModel<W> {
 
     /// Fills `xi` with `[x; demand; road; road rate; 1]` (and the zero padding).
     fn fill(&mut self, x: &[f64], demand: &[f64], road: &[f64], road_rate: &[f64]) {
-        let len = self.cols;
-        let (xs, rest) = self.xi.split_at_mut(self.states.min(len));
+        let len = self.shape.cols;
+        let (xs, rest) = self.xi.split_at_mut(self.shape.states.min(len));
         copy(xs, x);
-        let (ds, rest) = rest.split_at_mut(self.channels.min(rest.len()));
+        let (ds, rest) = rest.split_at_mut(self.shape.channels.min(rest.len()));
         copy(ds, demand);
-        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
+        let (ws, rest) = rest.split_at_mut(self.shape.inputs.min(rest.len()));
         copy(ws, road);
-        let (rs, one) = rest.split_at_mut(self.inputs.min(rest.len()));
+        let (rs, one) = rest.split_at_mut(self.shape.inputs.min(rest.len()));
         copy(rs, road_rate);
         if let Some(o) = one.first_mut() {
             *o = 1.0;
@@ -435,9 +434,9 @@ impl<const W: usize> LinearModel<W> {
     /// `fraction` of it, and the road rate to the ramp's (m/s), as [`Plant::advance`]'s RK4
     /// steps do.
     fn set_ramp(&mut self, from: &[f64], to: &[f64], fraction: f64, duration_s: f64) {
-        let start = self.states + self.channels;
+        let start = self.shape.states + self.shape.channels;
         let rest = self.xi.get_mut(start..).unwrap_or(&mut []);
-        let (ws, rest) = rest.split_at_mut(self.inputs.min(rest.len()));
+        let (ws, rest) = rest.split_at_mut(self.shape.inputs.min(rest.len()));
         for ((w, rate), (a, b)) in ws.iter_mut().zip(rest.iter_mut()).zip(from.iter().zip(to)) {
             *w = a + fraction * (b - a);
             *rate = (b - a) / duration_s;
@@ -465,7 +464,7 @@ impl<const W: usize> LinearModel<W> {
     fn in_regime(&self, actuators: &[ForceActuator]) -> bool {
         let mut values = [0.0; W];
         for (v, r) in values.iter_mut().zip(&self.regime) {
-            *v = dot_ext(r, &self.xi);
+            *v = dot(r, &self.xi);
         }
         self.passes(&values, actuators)
     }
@@ -480,14 +479,14 @@ impl<const W: usize> LinearModel<W> {
         (y, y_dot, forces): (&mut [f64], &mut [f64], &mut [f64]),
     ) -> bool {
         self.fill(x, demand, road, road_rate);
-        let values = matvec(&self.sample_matrix, &self.xi, self.cols);
+        let values = matvec(&self.sample_matrix, &self.xi, self.shape.cols);
         let regime = self.regime.len();
         if !self.passes(&values, actuators) {
             return false;
         }
         self.sampled_xi = self.xi;
         self.sampled_values = values;
-        let ch = self.channels;
+        let ch = self.shape.channels;
         let outputs = values.get(regime..).unwrap_or(&[]);
         let (ys, rest) = outputs.split_at(ch.min(outputs.len()));
         let (y_dots, fs) = rest.split_at(ch.min(rest.len()));
@@ -523,8 +522,8 @@ impl<const W: usize> LinearModel<W> {
             StartTest::FromSample => {
                 // R ξ = R ξ_sample + Σ over the road columns R_c (ξ_c − ξ_sample,c).
                 let mut values = self.sampled_values;
-                let first = self.states + self.channels;
-                for c in first..first + 2 * self.inputs {
+                let first = self.shape.states + self.shape.channels;
+                for c in first..first + 2 * self.shape.inputs {
                     let delta = self.xi.get(c).copied().unwrap_or(0.0)
                         - self.sampled_xi.get(c).copied().unwrap_or(0.0);
                     if delta != 0.0 {
@@ -539,8 +538,8 @@ impl<const W: usize> LinearModel<W> {
         if !start_inside {
             return false;
         }
-        let next = matvec(&self.step_matrix, &self.xi, self.cols);
-        if !self.passes(next.get(self.states..).unwrap_or(&[]), actuators) {
+        let next = matvec(&self.step_matrix, &self.xi, self.shape.cols);
+        if !self.passes(next.get(self.shape.states..).unwrap_or(&[]), actuators) {
             return false;
         }
         copy(x, &next);
@@ -1004,10 +1003,12 @@ impl Plant {
         }
         let balance = balance(&mut generator, cols);
         let parts = LinearParts {
-            states,
-            cols,
-            channels: ch,
-            inputs,
+            shape: Shape {
+                states,
+                cols,
+                channels: ch,
+                inputs,
+            },
             generator,
             balance,
             outputs,
