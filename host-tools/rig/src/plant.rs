@@ -26,7 +26,9 @@
 //! Any other step is the RK4 step from the same state, so a step that leaves or enters the
 //! regime is exactly the plain RK4 one; an excursion out of the regime and back strictly
 //! inside one internal step goes unnoticed (RK4 sees only its stage points, too). The
-//! signals of [`Plant::sample`] come from the same affine model in the regime.
+//! signals of [`Plant::sample`] come from the same affine model in the regime, and a
+//! [`Plant::advance`] right after a sample in the regime takes its whole period (all its
+//! internal steps, each boundary tested) in the same matrix-vector product as the sample.
 //! [`Plant::set_exact_steps`] switches this off (plain RK4 everywhere);
 //! [`Plant::step_counts`] counts both kinds of step.
 
@@ -157,17 +159,6 @@ fn dot4(a: &Fixed4, b: &Fixed4) -> f64 {
     (a[0] * b[0] + a[1] * b[1]) + (a[2] * b[2] + a[3] * b[3])
 }
 
-/// How [`LinearModel::step`] tests the start of a step.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum StartTest {
-    /// Known to be in the linear regime (the end of the last exact step).
-    Known,
-    /// The last sample's point with other road entries: tested from the sample's values.
-    FromSample,
-    /// Tested in full.
-    Full,
-}
-
 /// One test of the linear regime on the regime quantities (in order).
 #[derive(Clone, Copy, Debug)]
 enum RegimeTest {
@@ -179,81 +170,125 @@ enum RegimeTest {
     Actuator(usize),
 }
 
-/// Largest extended vector `ξ` (states + channels + 2 road inputs + 1) of the exact steps,
-/// and largest number of rows of their two stacked matrices; a larger plant integrates by
-/// RK4 alone. The half car on four posts needs 24.
-const MAX_COLS: usize = 40;
+/// Row capacities of the exact steps' matrices (the padded column length); a plant whose
+/// matrices need more rows than the largest integrates by RK4 alone. The half car on four
+/// posts needs 34 rows for one internal step per control sample.
+const ROW_CAPACITIES: [usize; 9] = [8, 12, 16, 20, 24, 32, 40, 48, 64];
 
-/// `M ξ` for a square matrix `M` stored by columns (`m[j]` multiplies `ξ_j`), over the
-/// first `used` columns: fixed-length column updates (vector instructions, no horizontal
-/// sums, no bounds checks). The exact steps' inner loop.
-#[inline]
-fn matvec<const W: usize>(m: &[[f64; W]; W], xi: &[f64; W], used: usize) -> [f64; W] {
-    let mut out = [0.0; W];
-    for j in 0..used.min(W) {
-        let (column, x) = (&m[j], xi[j]);
-        for i in 0..W {
-            out[i] += column[i] * x;
+/// `M ξ` for a matrix stored by columns of `R` rows (`m[j]` multiplies `ξ_j`) into `out`:
+/// fixed-length column updates (vector instructions, no horizontal sums, no bounds
+/// checks). The exact steps' inner loop.
+///
+/// Compiled twice: for the baseline CPU and with AVX (4-wide; no FMA, so that both give
+/// the same bits), chosen at run time.
+#[multiversion::multiversion(targets("x86_64+avx"))]
+fn matvec<const R: usize>(m: &[[f64; R]], xi: &[f64], out: &mut [f64; R]) {
+    *out = [0.0; R];
+    for (column, &x) in m.iter().zip(xi) {
+        for (o, c) in out.iter_mut().zip(column) {
+            *o += c * x;
         }
     }
-    out
 }
 
-/// [`LinearModel`] for the smallest padded width `W` that holds it.
+/// [`LinearModel`] for the smallest row capacity `R` that holds it.
 enum Linear {
-    W8(Box<LinearModel<8>>),
-    W12(Box<LinearModel<12>>),
-    W16(Box<LinearModel<16>>),
-    W24(Box<LinearModel<24>>),
-    W32(Box<LinearModel<32>>),
-    W40(Box<LinearModel<MAX_COLS>>),
+    R8(Box<LinearModel<8>>),
+    R12(Box<LinearModel<12>>),
+    R16(Box<LinearModel<16>>),
+    R20(Box<LinearModel<20>>),
+    R24(Box<LinearModel<24>>),
+    R32(Box<LinearModel<32>>),
+    R40(Box<LinearModel<40>>),
+    R48(Box<LinearModel<48>>),
+    R64(Box<LinearModel<64>>),
 }
 
-/// Runs `$body` with `$m` bound to the [`LinearModel`] inside a [`Linear`], whatever its width.
+/// Runs `$body` with `$m` bound to the [`LinearModel`] inside a [`Linear`], whatever its
+/// row capacity.
 macro_rules! with_linear {
     ($linear:expr, $m:ident => $body:expr) => {
         match $linear {
-            Linear::W8($m) => $body,
-            Linear::W12($m) => $body,
-            Linear::W16($m) => $body,
-            Linear::W24($m) => $body,
-            Linear::W32($m) => $body,
-            Linear::W40($m) => $body,
+            Linear::R8($m) => $body,
+            Linear::R12($m) => $body,
+            Linear::R16($m) => $body,
+            Linear::R20($m) => $body,
+            Linear::R24($m) => $body,
+            Linear::R32($m) => $body,
+            Linear::R40($m) => $body,
+            Linear::R48($m) => $body,
+            Linear::R64($m) => $body,
         }
     };
 }
 
+impl Linear {
+    /// `parts` padded to the smallest row capacity of at least `rows` (`None` if none
+    /// holds them).
+    fn with_rows(parts: LinearParts, rows: usize) -> Option<Self> {
+        let rows = rows.max(parts.minimum_rows());
+        let capacity = ROW_CAPACITIES.iter().copied().find(|&c| c >= rows)?;
+        Some(match capacity {
+            8 => Self::R8(Box::new(parts.padded())),
+            12 => Self::R12(Box::new(parts.padded())),
+            16 => Self::R16(Box::new(parts.padded())),
+            20 => Self::R20(Box::new(parts.padded())),
+            24 => Self::R24(Box::new(parts.padded())),
+            32 => Self::R32(Box::new(parts.padded())),
+            40 => Self::R40(Box::new(parts.padded())),
+            48 => Self::R48(Box::new(parts.padded())),
+            _ => Self::R64(Box::new(parts.padded())),
+        })
+    }
+
+    /// The row capacity.
+    fn capacity(&self) -> usize {
+        with_linear!(self, m => m.sampled.len())
+    }
+}
+
 /// The piecewise-linear plant's affine model and its exact discretisation. Columns of the
-/// extended vector `ξ = [x (N); demand (channels); road (inputs); road rate (inputs); 1]`,
-/// zero-padded to `W`.
+/// extended vector `ξ = [x (N); demand (channels); road (inputs); road rate (inputs); 1]`;
+/// matrices stored by columns of `R` rows (zero-padded).
 ///
-/// Per control sample the plant needs two matrix-vector products, both precomputed as one
-/// stacked `W × W` matrix stored by columns:
-/// - at a sample, `[R; O] ξ`: the regime quantities `R ξ` (tested) and the outputs
-///   `O ξ = [y; ẏ; F]`;
-/// - per exact step of `h`, `[Φ Γ; R e^{Gh}] ξ`: the state after the step and the regime
-///   quantities there (the road ramps inside `ξ`, as `G` integrates the road rate), so the
-///   end of a step is tested without building its `ξ`.
-struct LinearModel<const W: usize> {
-    shape: Shape,
-    /// `[[A, B], [0, S]]` (cols × cols; `S` ramps the road with its rate), balanced:
-    /// `D⁻¹ G D` with `D = diag(balance)`.
-    generator: Vec<f64>,
-    balance: Vec<f64>,
-    /// Regime quantities' rows `R` over `ξ` (one per quantity), tested by `tests`.
-    regime: Vec<[f64; W]>,
-    tests: Vec<RegimeTest>,
-    /// `[R; O]` by columns.
-    sample_matrix: [[f64; W]; W],
-    /// The step (s) `step_matrix` is for; NaN: none.
+/// The generator `G` (`ξ̇ = G ξ` in the regime, the road ramping at its rate) is
+/// discretised for the control period `T` split into `s` internal steps of `h = T / s`.
+/// Per control sample the plant then needs one matrix-vector product, of the *fused*
+/// matrix, at the sample's `ξ`, whose rows are:
+///
+/// ```text
+/// [ R            ]   regime quantities at the sample (tested there)
+/// [ Φ_T          ]   the state one control period later (`e^{G T}`'s state rows)
+/// [ R e^{G h}    ]   regime quantities at the end of internal step 1
+/// [  ...         ]
+/// [ R e^{G s h}  ]   ... and of step s
+/// [ O            ]   outputs [y; ẏ; F] at the sample
+/// ```
+///
+/// so the whole period is tested at every internal step boundary, exactly as `s` separate
+/// exact steps would be, and taken in one product. The step starts from the sample's
+/// point with the ramp's road rate instead of the sample's (central) one: the difference
+/// is added as one column update. When any test fails, the period is integrated step by
+/// step (the stacked `[Φ_h; R e^{G h}]` per exact step, RK4 for a step that leaves the
+/// regime).
+struct LinearModel<const R: usize> {
+    parts: LinearParts,
+    /// The fused matrix by columns (rows as in the type's documentation; without the step
+    /// rows while `fused_steps` is 0).
+    fused: Vec<[f64; R]>,
+    /// Control period (s) and internal steps the fused matrix is for (`NaN`, 0: none).
+    fused_period_s: f64,
+    fused_steps: usize,
+    /// First row of `O` in `fused`.
+    outputs_at: usize,
+    /// `[Φ_h; R e^{G h}]` by columns, for one internal step `step_s` (s; `NaN`: none).
+    step_matrix: Vec<[f64; R]>,
     step_s: f64,
-    /// `[Φ Γ; R e^{Gh}]` by columns.
-    step_matrix: [[f64; W]; W],
-    xi: [f64; W],
-    /// `ξ` and `[R; O] ξ` of the last sample in the linear regime, from which the start of
-    /// the next step is tested by the difference of the road entries alone.
-    sampled_xi: [f64; W],
-    sampled_values: [f64; W],
+    xi: Vec<f64>,
+    /// The fused product at the last sample in the linear regime, and whether its step
+    /// rows are valid for `fused_period_s` (cleared when used).
+    sampled: [f64; R],
+    sample_pending: bool,
     // Scratch of the matrix exponential (cols × cols each).
     exp: Vec<f64>,
     term: Vec<f64>,
@@ -270,77 +305,115 @@ struct Shape {
 }
 
 /// A [`LinearModel`]'s parts as the construction finds them (rows of `cols`).
+#[derive(Clone)]
 struct LinearParts {
     shape: Shape,
+    /// `[[A, B], [0, S]]` (cols × cols, row-major; `S` ramps the road with its rate),
+    /// balanced: `D⁻¹ G D` with `D = diag(balance)`.
     generator: Vec<f64>,
     balance: Vec<f64>,
     /// `3 channels × cols`, row-major.
     outputs: Vec<f64>,
+    /// Regime quantities' rows `R` over `ξ` (one per quantity), tested by `tests`.
     regime: Vec<Vec<f64>>,
     tests: Vec<RegimeTest>,
 }
 
 impl LinearParts {
-    /// The smallest padded width that holds `ξ` and both stacked matrices' rows.
-    fn width(&self) -> usize {
-        let regime = self.regime.len();
-        self.shape
-            .cols
-            .max(regime + 3 * self.shape.channels)
-            .max(self.shape.states + regime)
+    /// Rows the matrices need without a fused step: `[R; O]` at a sample with room for
+    /// `Φ_T`, and `[Φ_h; R e^{G h}]`.
+    fn minimum_rows(&self) -> usize {
+        self.fused_rows(0)
     }
 
-    /// The model with its rows zero-padded to `W` (≥ [`LinearParts::width`]).
-    fn padded<const W: usize>(self) -> LinearModel<W> {
+    /// Rows of the fused matrix for `steps` internal steps per control period.
+    fn fused_rows(&self, steps: usize) -> usize {
+        let regime = self.regime.len();
+        regime * (1 + steps) + self.shape.states + 3 * self.shape.channels
+    }
+
+    /// The model with its columns zero-padded to `R` rows (`R ≥ minimum_rows`), without a
+    /// discretisation yet.
+    fn padded<const R: usize>(self) -> LinearModel<R> {
         let cols = self.shape.cols;
-        let pad = |r: &[f64]| -> [f64; W] {
-            let mut e = [0.0; W];
-            copy(&mut e, r);
-            e
-        };
-        let regime: Vec<[f64; W]> = self.regime.iter().map(|r| pad(r)).collect();
-        // [R; O] by columns.
-        let mut sample_matrix = [[0.0; W]; W];
-        let rows = regime
-            .iter()
-            .copied()
-            .chain(self.outputs.chunks_exact(cols.max(1)).map(pad));
-        for (i, r) in rows.enumerate() {
-            for (column, v) in sample_matrix.iter_mut().zip(r) {
-                if let Some(c) = column.get_mut(i) {
-                    *c = v;
-                }
-            }
-        }
-        LinearModel {
-            shape: self.shape,
-            generator: self.generator,
-            balance: self.balance,
-            regime,
-            tests: self.tests,
-            sample_matrix,
+        let mut model = LinearModel {
+            fused: vec![[0.0; R]; cols],
+            fused_period_s: f64::NAN,
+            fused_steps: 0,
+            outputs_at: 0,
+            step_matrix: vec![[0.0; R]; cols],
             step_s: f64::NAN,
-            step_matrix: [[0.0; W]; W],
-            xi: [0.0; W],
-            sampled_xi: [0.0; W],
-            sampled_values: [0.0; W],
+            xi: vec![0.0; cols],
+            sampled: [0.0; R],
+            sample_pending: false,
             exp: vec![0.0; cols * cols],
             term: vec![0.0; cols * cols],
             product: vec![0.0; cols * cols],
-        }
+            parts: self,
+        };
+        model.set_fused(None, 0);
+        model
     }
 }
 
-impl<const W: usize> LinearModel<W> {
-    /// `e^{G h}` of the balanced generator into `exp` (scaling and squaring of a Taylor
-    /// series of degree 18 at norm <= 1/2), then the stacked step matrix `[Φ Γ; R e^{Gh}]`
-    /// un-balanced. False (and no step) if the result is not finite.
-    fn discretise(&mut self, h: f64) -> bool {
-        let p = self.shape.cols;
+impl<const R: usize> LinearModel<R> {
+    /// Writes the fused matrix's columns: `R`, then `Φ_T` and `R e^{G j h}` from `powers`
+    /// (`e^{G j h}` row-major for `j = 1..=steps`; `None`: no step rows), then `O`.
+    fn set_fused(&mut self, powers: Option<&[Vec<f64>]>, steps: usize) {
+        let p = &self.parts;
+        let (cols, states) = (p.shape.cols, p.shape.states);
+        let regime = p.regime.len();
+        let steps = if powers.is_some() { steps } else { 0 };
+        let outputs_at = regime * (1 + steps) + states;
+        for (j, column) in self.fused.iter_mut().enumerate() {
+            *column = [0.0; R];
+            let mut rows = column.iter_mut();
+            for r in &p.regime {
+                if let Some(c) = rows.next() {
+                    *c = r.get(j).copied().unwrap_or(0.0);
+                }
+            }
+            let power = |k: usize, i: usize| -> f64 {
+                powers
+                    .and_then(|ps| ps.get(k))
+                    .and_then(|e| e.get(i * cols + j))
+                    .copied()
+                    .unwrap_or(0.0)
+            };
+            for i in 0..states {
+                if let Some(c) = rows.next() {
+                    *c = power(steps.wrapping_sub(1), i);
+                }
+            }
+            for k in 0..steps {
+                for r in &p.regime {
+                    if let Some(c) = rows.next() {
+                        *c = r.iter().enumerate().map(|(i, ri)| ri * power(k, i)).sum();
+                    }
+                }
+            }
+            for (c, o) in column
+                .iter_mut()
+                .skip(outputs_at)
+                .zip(p.outputs.iter().skip(j).step_by(cols.max(1)))
+            {
+                *c = *o;
+            }
+        }
+        self.outputs_at = outputs_at;
+        self.fused_steps = steps;
+        self.sample_pending = false;
+    }
+
+    /// `e^{G h}` (row-major, un-balanced) into `exp`: scaling and squaring of a Taylor
+    /// series of degree 18 at norm <= 1/2 on the balanced generator.
+    fn exponential(&mut self, h: f64) {
+        let p = self.parts.shape.cols;
+        let generator = &self.parts.generator;
         let norm = (0..p)
             .map(|j| {
                 (0..p)
-                    .map(|i| self.generator.get(i * p + j).map_or(0.0, |v| (v * h).abs()))
+                    .map(|i| generator.get(i * p + j).map_or(0.0, |v| (v * h).abs()))
                     .sum::<f64>()
             })
             .fold(0.0_f64, f64::max);
@@ -359,7 +432,7 @@ impl<const W: usize> LinearModel<W> {
             *t = v;
         }
         for k in 1..=18 {
-            matmul(&self.term, &self.generator, p, &mut self.product);
+            matmul(&self.term, generator, p, &mut self.product);
             let f = scale / f64::from(k);
             for ((t, pr), e) in self
                 .term
@@ -377,7 +450,7 @@ impl<const W: usize> LinearModel<W> {
         }
         // Un-balance in place: e^{Gh} = D (balanced exponential) D⁻¹.
         for i in 0..p {
-            let di = self.balance.get(i).copied().unwrap_or(1.0);
+            let di = self.parts.balance.get(i).copied().unwrap_or(1.0);
             for (j, e) in self
                 .exp
                 .get_mut(i * p..i * p + p)
@@ -385,21 +458,31 @@ impl<const W: usize> LinearModel<W> {
                 .iter_mut()
                 .enumerate()
             {
-                *e = di * *e / self.balance.get(j).copied().unwrap_or(1.0);
+                *e = di * *e / self.parts.balance.get(j).copied().unwrap_or(1.0);
             }
         }
-        let mut finite = true;
-        let mut matrix = [[0.0; W]; W];
-        for (j, column) in matrix.iter_mut().enumerate().take(p) {
+    }
+
+    /// Discretises for the control period `period_s` (s) in `steps` internal steps: the
+    /// step matrix `[Φ_h; R e^{G h}]` and, when the rows fit, the fused matrix. False (and
+    /// neither) if the exponential is not finite.
+    fn discretise(&mut self, period_s: f64, steps: usize) -> bool {
+        let h = period_s / steps.max(1) as f64;
+        self.exponential(h);
+        let (p, states) = (self.parts.shape.cols, self.parts.shape.states);
+        if !self.exp.iter().all(|v| v.is_finite()) {
+            self.step_s = f64::NAN;
+            self.fused_period_s = f64::NAN;
+            self.set_fused(None, 0);
+            return false;
+        }
+        for (j, column) in self.step_matrix.iter_mut().enumerate() {
+            *column = [0.0; R];
             let exp_column = |i: usize| self.exp.get(i * p + j).copied().unwrap_or(0.0);
-            for (i, c) in column.iter_mut().enumerate().take(self.shape.states) {
+            for (i, c) in column.iter_mut().enumerate().take(states) {
                 *c = exp_column(i);
             }
-            for (r, c) in self
-                .regime
-                .iter()
-                .zip(column.iter_mut().skip(self.shape.states))
-            {
+            for (r, c) in self.parts.regime.iter().zip(column.iter_mut().skip(states)) {
                 *c = r
                     .iter()
                     .take(p)
@@ -407,23 +490,38 @@ impl<const W: usize> LinearModel<W> {
                     .map(|(k, rk)| rk * exp_column(k))
                     .sum();
             }
-            finite &= column.iter().all(|v| v.is_finite());
         }
-        self.step_matrix = matrix;
-        self.step_s = if finite { h } else { f64::NAN };
-        finite
+        self.step_s = h;
+        if self.parts.fused_rows(steps) <= R {
+            let mut powers = vec![self.exp.clone()];
+            for _ in 1..steps {
+                let mut next = vec![0.0; p * p];
+                if let Some(last) = powers.last() {
+                    matmul(last, &self.exp, p, &mut next);
+                }
+                powers.push(next);
+            }
+            if powers.iter().flatten().all(|v| v.is_finite()) {
+                self.set_fused(Some(&powers), steps);
+                self.fused_period_s = period_s;
+                return true;
+            }
+        }
+        self.set_fused(None, 0);
+        self.fused_period_s = f64::NAN;
+        true
     }
 
-    /// Fills `xi` with `[x; demand; road; road rate; 1]` (and the zero padding).
+    /// Fills `xi` with `[x; demand; road; road rate; 1]`.
     fn fill(&mut self, x: &[f64], demand: &[f64], road: &[f64], road_rate: &[f64]) {
-        let len = self.shape.cols;
-        let (xs, rest) = self.xi.split_at_mut(self.shape.states.min(len));
+        let s = self.parts.shape;
+        let (xs, rest) = self.xi.split_at_mut(s.states.min(s.cols));
         copy(xs, x);
-        let (ds, rest) = rest.split_at_mut(self.shape.channels.min(rest.len()));
+        let (ds, rest) = rest.split_at_mut(s.channels.min(rest.len()));
         copy(ds, demand);
-        let (ws, rest) = rest.split_at_mut(self.shape.inputs.min(rest.len()));
+        let (ws, rest) = rest.split_at_mut(s.inputs.min(rest.len()));
         copy(ws, road);
-        let (rs, one) = rest.split_at_mut(self.shape.inputs.min(rest.len()));
+        let (rs, one) = rest.split_at_mut(s.inputs.min(rest.len()));
         copy(rs, road_rate);
         if let Some(o) = one.first_mut() {
             *o = 1.0;
@@ -434,9 +532,9 @@ impl<const W: usize> LinearModel<W> {
     /// `fraction` of it, and the road rate to the ramp's (m/s), as [`Plant::advance`]'s RK4
     /// steps do.
     fn set_ramp(&mut self, from: &[f64], to: &[f64], fraction: f64, duration_s: f64) {
-        let start = self.shape.states + self.shape.channels;
-        let rest = self.xi.get_mut(start..).unwrap_or(&mut []);
-        let (ws, rest) = rest.split_at_mut(self.shape.inputs.min(rest.len()));
+        let s = self.parts.shape;
+        let rest = self.xi.get_mut(s.states + s.channels..).unwrap_or(&mut []);
+        let (ws, rest) = rest.split_at_mut(s.inputs.min(rest.len()));
         for ((w, rate), (a, b)) in ws.iter_mut().zip(rest.iter_mut()).zip(from.iter().zip(to)) {
             *w = a + fraction * (b - a);
             *rate = (b - a) / duration_s;
@@ -445,101 +543,143 @@ impl<const W: usize> LinearModel<W> {
 
     /// Whether the regime quantities `values` (in the order of `tests`) pass every test
     /// (false for NaN).
+    #[inline(always)]
     fn passes(&self, values: &[f64], actuators: &[ForceActuator]) -> bool {
-        let mut values = values.iter().copied();
-        let mut value = || values.next().unwrap_or(f64::NAN);
-        self.tests.iter().all(|test| match *test {
-            RegimeTest::NonNegative => value() >= 0.0,
-            RegimeTest::Above(bound) => value() > bound,
-            RegimeTest::Actuator(j) => {
-                let (u, demanded, pl) = (value(), value(), value());
-                actuators
-                    .get(j)
-                    .is_some_and(|a| a.in_linear_regime(u, demanded, pl))
+        let mut values = values.iter();
+        for test in &self.parts.tests {
+            let pass = match *test {
+                RegimeTest::NonNegative => values.next().is_some_and(|v| *v >= 0.0),
+                RegimeTest::Above(bound) => values.next().is_some_and(|v| *v > bound),
+                RegimeTest::Actuator(j) => match (values.next(), values.next(), values.next()) {
+                    (Some(u), Some(demanded), Some(pl)) => actuators
+                        .get(j)
+                        .is_some_and(|a| a.in_linear_regime(*u, *demanded, *pl)),
+                    _ => false,
+                },
+            };
+            if !pass {
+                return false;
             }
-        })
+        }
+        true
     }
 
     /// Whether `xi` lies in the linear regime (false for NaN).
     fn in_regime(&self, actuators: &[ForceActuator]) -> bool {
-        let mut values = [0.0; W];
-        for (v, r) in values.iter_mut().zip(&self.regime) {
+        let mut values = [0.0; R];
+        for (v, r) in values.iter_mut().zip(&self.parts.regime) {
             *v = dot(r, &self.xi);
         }
         self.passes(&values, actuators)
     }
 
-    /// The outputs `y`, `ẏ` and `F` (per channel) at state `x` with `(demand, road, road
-    /// rate)`, if that point lies in the linear regime (false, outputs untouched, if not).
+    /// Evaluates the fused matrix at state `x` with `(demand, road, road rate)`; true if
+    /// that point lies in the linear regime (its outputs then in [`LinearModel::output`],
+    /// and the period from it ready for [`LinearModel::advance_period`]).
     fn sample(
         &mut self,
         x: &[f64],
         actuators: &[ForceActuator],
         (demand, road, road_rate): (&[f64], &[f64], &[f64]),
-        (y, y_dot, forces): (&mut [f64], &mut [f64], &mut [f64]),
     ) -> bool {
         self.fill(x, demand, road, road_rate);
-        let values = matvec(&self.sample_matrix, &self.xi, self.shape.cols);
-        let regime = self.regime.len();
-        if !self.passes(&values, actuators) {
+        matvec(&self.fused, &self.xi, &mut self.sampled);
+        let inside = self.passes(&self.sampled, actuators);
+        self.sample_pending = inside && self.fused_steps > 0;
+        inside
+    }
+
+    /// Output `k` (0: `y`, 1: `ẏ`, 2: `F`) per channel at the last sample in the regime.
+    fn output(&self, k: usize) -> &[f64] {
+        let ch = self.parts.shape.channels;
+        let start = self.outputs_at + k * ch;
+        self.sampled.get(start..start + ch).unwrap_or(&[])
+    }
+
+    /// The control period `period_s` (s) from the last sample's point in one product (see
+    /// the type's documentation), with `demand` held and the road on the ramp from `from`
+    /// to `to` (m): true (and `x` advanced) when it is the period the fused matrix is for,
+    /// the sample's demand and road, and every internal step boundary lies in the regime;
+    /// false (and `x` unchanged) otherwise. Consumes the sample.
+    fn advance_period(
+        &mut self,
+        x: &mut [f64],
+        actuators: &[ForceActuator],
+        demand: &[f64],
+        (from, to): (&[f64], &[f64]),
+        period_s: f64,
+    ) -> bool {
+        if !std::mem::take(&mut self.sample_pending) || period_s != self.fused_period_s {
             return false;
         }
-        self.sampled_xi = self.xi;
-        self.sampled_values = values;
-        let ch = self.shape.channels;
-        let outputs = values.get(regime..).unwrap_or(&[]);
-        let (ys, rest) = outputs.split_at(ch.min(outputs.len()));
-        let (y_dots, fs) = rest.split_at(ch.min(rest.len()));
-        copy(y, ys);
-        copy(y_dot, y_dots);
-        copy(forces, fs);
+        let s = self.parts.shape;
+        let road_at = s.states + s.channels;
+        let rate_at = road_at + s.inputs;
+        if self.xi.get(s.states..road_at) != Some(demand)
+            || self.xi.get(road_at..rate_at) != Some(from)
+        {
+            return false;
+        }
+        let regime = self.parts.regime.len();
+        if s.inputs > 0 {
+            // The ramp's road rate in place of the sample's: one column update per input of
+            // the rows before the outputs (which stay the sample's).
+            let rows = self.outputs_at;
+            let mut moved = false;
+            let sampled_rate = self.xi.get(rate_at..).unwrap_or(&[]);
+            let rate_columns = self.fused.get(rate_at..).unwrap_or(&[]);
+            for (((a, b), sampled), column) in
+                from.iter().zip(to).zip(sampled_rate).zip(rate_columns)
+            {
+                let delta = (b - a) / period_s - sampled;
+                if delta != 0.0 {
+                    moved = true;
+                    for (v, c) in self.sampled.iter_mut().zip(column).take(rows) {
+                        *v += c * delta;
+                    }
+                }
+            }
+            if moved && !self.passes(&self.sampled, actuators) {
+                return false;
+            }
+        }
+        let after_state = regime + s.states;
+        let mut end = after_state;
+        for _ in 0..self.fused_steps {
+            if !self.passes(self.sampled.get(end..).unwrap_or(&[]), actuators) {
+                return false;
+            }
+            end += regime;
+        }
+        copy(x, self.sampled.get(regime..after_state).unwrap_or(&[]));
         true
     }
 
-    /// One exact step of `self.step_s` from `x` (in place) with the demand held and the
-    /// road on the ramp from `from` to `to` (m) over `duration_s` (s), from the fraction
-    /// `f0` of it; false (and `x` unchanged) when either end is outside the linear regime.
-    /// The start is tested as `start` says: [`StartTest::Known`] when it is where the last
-    /// step ended, [`StartTest::FromSample`] when it differs from the last sample's point
-    /// (same state and demand) in its road entries alone.
+    /// One exact internal step of `self.step_s` from `x` (in place) with the demand held
+    /// and the road on the ramp from `from` to `to` (m) over `duration_s` (s), from the
+    /// fraction `f0` of it; false (and `x` unchanged) when either end is outside the
+    /// linear regime. The start is tested unless `start_known` (it is where the last exact
+    /// step ended).
     #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
         x: &mut [f64],
         actuators: &[ForceActuator],
         demand: &[f64],
-        from: &[f64],
-        to: &[f64],
+        (from, to): (&[f64], &[f64]),
         f0: f64,
         duration_s: f64,
-        start: StartTest,
+        start_known: bool,
     ) -> bool {
         self.fill(x, demand, &[], &[]);
         self.set_ramp(from, to, f0, duration_s);
-        let start_inside = match start {
-            StartTest::Known => true,
-            StartTest::Full => self.in_regime(actuators),
-            StartTest::FromSample => {
-                // R ξ = R ξ_sample + Σ over the road columns R_c (ξ_c − ξ_sample,c).
-                let mut values = self.sampled_values;
-                let first = self.shape.states + self.shape.channels;
-                for c in first..first + 2 * self.shape.inputs {
-                    let delta = self.xi.get(c).copied().unwrap_or(0.0)
-                        - self.sampled_xi.get(c).copied().unwrap_or(0.0);
-                    if delta != 0.0 {
-                        for (v, r) in values.iter_mut().zip(&self.regime) {
-                            *v += r.get(c).copied().unwrap_or(0.0) * delta;
-                        }
-                    }
-                }
-                self.passes(&values, actuators)
-            }
-        };
-        if !start_inside {
+        if !start_known && !self.in_regime(actuators) {
             return false;
         }
-        let next = matvec(&self.step_matrix, &self.xi, self.shape.cols);
-        if !self.passes(next.get(self.shape.states..).unwrap_or(&[]), actuators) {
+        let mut next = [0.0; R];
+        matvec(&self.step_matrix, &self.xi, &mut next);
+        let states = self.parts.shape.states;
+        if !self.passes(next.get(states..).unwrap_or(&[]), actuators) {
             return false;
         }
         copy(x, &next);
@@ -548,8 +688,9 @@ impl<const W: usize> LinearModel<W> {
 }
 
 /// The specimen with its drive, state and scratch space (no allocation while stepping; the
-/// exact discretisation is recomputed in place, about 20 small matrix products, whenever the
-/// step length changes).
+/// exact discretisation is recomputed, a few dozen small matrix products, whenever the
+/// control period changes, and its matrices are widened, allocating, when a period takes
+/// more internal steps than they have rows for).
 pub struct Plant {
     specimen: Specimen,
     drive: Drive,
@@ -593,14 +734,22 @@ pub struct Plant {
     /// The specimen's coefficients padded to [`FIXED`] (when it fits).
     fixed: Option<Fixed>,
     linear: Option<Linear>,
-    /// The last [`Plant::sample`] took the exact path at the current state with the demand
-    /// in `sampled_demand` (so that point is known to be in the linear regime).
-    exact_sample_ready: bool,
+    /// The last [`Plant::sample`] took the exact path at the current state: its outputs
+    /// are the linear model's.
+    linear_outputs: bool,
     /// `(duration (s), internal steps, step (s))` of the last [`Plant::advance`], so that
     /// the usual constant duration costs no divisions.
     advance_split: (f64, usize, f64),
     exact_steps: bool,
     counts: StepCounts,
+}
+
+/// The actuators of a drive (none for an ideal interface).
+fn drive_actuators(drive: &Drive) -> &[ForceActuator] {
+    match drive {
+        Drive::Actuators(a) => a,
+        Drive::Ideal(_) => &[],
+    }
 }
 
 /// Inverse of a small square matrix given as rows (Gauss–Jordan with partial pivoting),
@@ -673,7 +822,7 @@ fn row(m: &[f64], i: usize, n: usize) -> &[f64] {
     m.get(i * n..i * n + n).unwrap_or(&[])
 }
 
-/// `dst = src` element by element (no `memmove` call for a handful of values).
+/// `dst = src` over the shorter length.
 #[inline]
 fn copy(dst: &mut [f64], src: &[f64]) {
     for (d, s) in dst.iter_mut().zip(src) {
@@ -904,7 +1053,7 @@ impl Plant {
             drive,
             fixed,
             linear: None,
-            exact_sample_ready: false,
+            linear_outputs: false,
             advance_split: (f64::NAN, 1, f64::NAN),
             exact_steps: true,
             counts: StepCounts::default(),
@@ -1015,15 +1164,10 @@ impl Plant {
             regime,
             tests,
         };
-        Some(match parts.width() {
-            0..=8 => Linear::W8(Box::new(parts.padded())),
-            9..=12 => Linear::W12(Box::new(parts.padded())),
-            13..=16 => Linear::W16(Box::new(parts.padded())),
-            17..=24 => Linear::W24(Box::new(parts.padded())),
-            25..=32 => Linear::W32(Box::new(parts.padded())),
-            33..=MAX_COLS => Linear::W40(Box::new(parts.padded())),
-            _ => return None,
-        })
+        // Room for one internal step per control period; `advance` widens it when the
+        // period takes more.
+        let rows = parts.fused_rows(1);
+        Linear::with_rows(parts, rows)
     }
 
     /// The linear regime's model at `xi` with the constant terms (static forces, preloads,
@@ -1171,7 +1315,10 @@ impl Plant {
     pub fn set_exact_steps(&mut self, on: bool) {
         self.exact_steps = on;
         self.first_stage_ready = false;
-        self.exact_sample_ready = false;
+        self.linear_outputs = false;
+        if let Some(linear) = self.linear.as_mut() {
+            with_linear!(linear, m => m.sample_pending = false);
+        }
     }
 
     /// Internal steps taken so far, exact and RK4.
@@ -1185,7 +1332,10 @@ impl Plant {
         self.state.iter_mut().for_each(|x| *x = 0.0);
         self.time_s = 0.0;
         self.first_stage_ready = false;
-        self.exact_sample_ready = false;
+        self.linear_outputs = false;
+        if let Some(linear) = self.linear.as_mut() {
+            with_linear!(linear, m => m.sample_pending = false);
+        }
         let offset = 2 * self.n + self.element_states;
         if let Drive::Actuators(acts) = &self.drive {
             for (j, (a, f)) in acts.iter().zip(demand).enumerate() {
@@ -1385,54 +1535,85 @@ impl Plant {
     /// actuator demands `demand` (N per channel; ignored by an ideal interface) held and the
     /// road ramping from `road_from` to `road_to` (m per input). A piecewise-linear plant
     /// takes the same steps exactly while in its linear regime (see the module
-    /// documentation).
+    /// documentation); after a [`Plant::sample`] in the regime with the same demand and
+    /// `road_from`, the whole period is one product (see [`LinearModel`]).
     ///
     /// When [`Plant::sample`] was called last with the same demand, `road_from` and the
     /// ramp's rate `(road_to − road_from) / duration_s` (m/s), the first RK4 stage is the
     /// derivative it evaluated and is not evaluated again.
     pub fn advance(&mut self, duration_s: f64, demand: &[f64], road_from: &[f64], road_to: &[f64]) {
+        self.linear_outputs = false;
+        if self.exact_steps {
+            if let Some(linear) = self.linear.as_mut() {
+                let actuators = drive_actuators(&self.drive);
+                let state = &mut self.state;
+                let steps = with_linear!(linear, m => m.advance_period(
+                    state,
+                    actuators,
+                    demand,
+                    (road_from, road_to),
+                    duration_s,
+                )
+                .then_some(m.fused_steps));
+                if let Some(steps) = steps {
+                    self.counts.exact += steps as u64;
+                    self.time_s += duration_s;
+                    return;
+                }
+            }
+        }
+        self.advance_in_steps(duration_s, demand, road_from, road_to);
+    }
+
+    /// [`Plant::advance`] step by step: exact internal steps while in the regime, RK4
+    /// otherwise (and everywhere without exact steps).
+    #[inline(never)]
+    fn advance_in_steps(
+        &mut self,
+        duration_s: f64,
+        demand: &[f64],
+        road_from: &[f64],
+        road_to: &[f64],
+    ) {
         if self.advance_split.0 != duration_s {
             let steps = (duration_s / self.internal_step_s - 1e-9).ceil().max(1.0) as usize;
             self.advance_split = (duration_s, steps, duration_s / steps as f64);
         }
         let (_, steps, h) = self.advance_split;
-        // The start of the first step is the point the last sample found in the linear
-        // regime but for the road entries (the sample takes the road rate centrally, the
-        // step from the ramp) when the state and the demand are the same.
-        let sampled_start = self.exact_sample_ready && self.sampled_demand.as_slice() == demand;
-        self.exact_sample_ready = false;
         let mut exact = false;
         if self.exact_steps {
             if let Some(linear) = self.linear.as_mut() {
-                exact = with_linear!(linear, m => m.step_s == h || m.discretise(h));
+                let (ready, rows) = with_linear!(&*linear, m => (
+                    m.step_s == h && m.fused_period_s == duration_s,
+                    m.parts.fused_rows(steps),
+                ));
+                if !ready && rows > linear.capacity() {
+                    // A period of more internal steps than the fused matrix has room for:
+                    // widen it (allocates; only when the period changes).
+                    let parts = with_linear!(&*linear, m => m.parts.clone());
+                    if let Some(wider) = Linear::with_rows(parts, rows) {
+                        *linear = wider;
+                    }
+                }
+                exact = ready || with_linear!(linear, m => m.discretise(duration_s, steps));
             }
         }
         let mut previous_exact = false;
         for s in 0..steps {
             if exact {
                 if let Some(linear) = self.linear.as_mut() {
-                    let actuators: &[ForceActuator] = match &self.drive {
-                        Drive::Actuators(a) => a,
-                        Drive::Ideal(_) => &[],
-                    };
                     let f0 = if s == 0 { 0.0 } else { s as f64 / steps as f64 };
+                    let actuators = drive_actuators(&self.drive);
                     let state = &mut self.state;
                     // After an exact step the start was tested as that step's end.
-                    let start = match (s, sampled_start, previous_exact) {
-                        (0, true, _) if self.road.is_empty() => StartTest::Known,
-                        (0, true, _) => StartTest::FromSample,
-                        (0, false, _) | (_, _, false) => StartTest::Full,
-                        _ => StartTest::Known,
-                    };
                     let done = with_linear!(linear, m => m.step(
                         state,
                         actuators,
                         demand,
-                        road_from,
-                        road_to,
+                        (road_from, road_to),
                         f0,
                         duration_s,
-                        start,
+                        previous_exact,
                     ));
                     previous_exact = done;
                     if done {
@@ -1500,23 +1681,16 @@ impl Plant {
                     Drive::Actuators(a) => a,
                     Drive::Ideal(_) => &[],
                 };
-                let (state, y, y_dot, forces) =
-                    (&self.state, &mut self.y, &mut self.y_dot, &mut self.forces);
-                let inside = with_linear!(linear, m => m.sample(
-                    state,
-                    actuators,
-                    (demand, road, road_rate),
-                    (y, y_dot, forces),
-                ));
+                let state = &self.state;
+                let inside = with_linear!(linear, m => m.sample(state, actuators, (demand, road, road_rate)));
                 if inside {
                     self.first_stage_ready = false;
-                    self.exact_sample_ready = true;
-                    copy(&mut self.sampled_demand, demand);
+                    self.linear_outputs = true;
                     return;
                 }
             }
         }
-        self.exact_sample_ready = false;
+        self.linear_outputs = false;
         copy(&mut self.road, road);
         copy(&mut self.road_rate, road_rate);
         self.derivative(0, false, demand);
@@ -1526,20 +1700,34 @@ impl Plant {
         self.first_stage_ready = true;
     }
 
+    /// Output `k` (0: position, 1: velocity, 2: force) of the last [`Plant::sample`].
+    fn sampled_output(&self, k: usize) -> &[f64] {
+        if self.linear_outputs {
+            if let Some(linear) = &self.linear {
+                return with_linear!(linear, m => m.output(k));
+            }
+        }
+        match k {
+            0 => &self.y,
+            1 => &self.y_dot,
+            _ => &self.forces,
+        }
+    }
+
     /// Attachment position per channel (m) at the last [`Plant::sample`].
     pub fn position(&self) -> &[f64] {
-        &self.y
+        self.sampled_output(0)
     }
 
     /// Attachment velocity per channel (m/s) at the last [`Plant::sample`].
     pub fn velocity(&self) -> &[f64] {
-        &self.y_dot
+        self.sampled_output(1)
     }
 
     /// Interface force on the specimen per channel (N) at the last [`Plant::sample`]: the
     /// load-cell force, or the ideal interface's force.
     pub fn force(&self) -> &[f64] {
-        &self.forces
+        self.sampled_output(2)
     }
 
     /// The plant's signals now (see [`Plant::sample`]), collected.
@@ -1556,9 +1744,9 @@ impl Plant {
                 .collect()
         };
         PlantOutputs {
-            position: self.y.clone(),
-            velocity: self.y_dot.clone(),
-            force: self.forces.clone(),
+            position: self.position().to_vec(),
+            velocity: self.velocity().to_vec(),
+            force: self.force().to_vec(),
             dofs: self.state[..self.n].to_vec(),
             load_pressure: pick(crate::actuator::state::LOAD_PRESSURE),
             spool: pick(crate::actuator::state::SPOOL),
