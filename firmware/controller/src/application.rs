@@ -16,13 +16,15 @@
 //! a valid measurement the link is *lost*: a Running controller is tripped with
 //! [`fault::COMM_TIMEOUT`] (latched until a ClearFault command), and from then on every tick
 //! steps the controller itself (its demand ramps to the safe demand at the safe ramp rate)
-//! and returns the demand to transmit, until measurements come back.
+//! and returns the demand to transmit, until measurements come back. The QEMU build alone
+//! can switch the watchdog off until reset ([`crate::config::WATCHDOG_OFF`], for the
+//! instruction benchmark under `-icount ...,sleep=off`): its ticks then count nothing.
 
 use model_core::{Mode, ModelInput, ParamError};
 
 use crate::config::{
     default_params, Controller, Params, Prepared, CHANNELS, DT, STATUS_PERIOD_SAMPLES,
-    WATCHDOG_SAMPLES,
+    WATCHDOG_OFF, WATCHDOG_SAMPLES,
 };
 use crate::params::{code, status_period, watchdog_from_seconds, watchdog_limit};
 
@@ -184,9 +186,14 @@ impl Watchdog {
         }
     }
 
-    /// `true` when N ticks have passed without a valid measurement.
+    /// `true` when N ticks have passed without a valid measurement (never when off).
     pub fn expired(&self) -> bool {
-        self.silent_ticks >= u32::from(self.limit)
+        !self.is_off() && self.silent_ticks >= u32::from(self.limit)
+    }
+
+    /// `true` when switched off ([`WATCHDOG_OFF`]; only the QEMU build accepts it).
+    pub fn is_off(&self) -> bool {
+        self.limit == WATCHDOG_OFF
     }
 }
 
@@ -334,6 +341,9 @@ impl Application {
     /// One watchdog tick. Returns the frames to transmit when the tick stepped the controller
     /// (the link is lost).
     pub fn on_tick(&mut self) -> Option<Output> {
+        if self.watchdog.is_off() {
+            return None;
+        }
         let armed = self.watchdog.seen || self.controller.mode() == Mode::Running;
         if !armed {
             return None;
@@ -425,6 +435,8 @@ impl Application {
                     code::WRONG_MODE
                 }
             }
+            // Off until reset (QEMU build only): the tick timer has been stopped.
+            _ if self.watchdog.is_off() && Self::sets_watchdog(command) => code::WRONG_MODE,
             Command::SetWatchdog { seconds } => match watchdog_from_seconds(seconds) {
                 Ok(n) => {
                     self.watchdog.limit = n;
@@ -458,6 +470,17 @@ impl Application {
             self.count_rejected();
         }
         result
+    }
+
+    /// `command` changes the watchdog limit (SetWatchdog, or SetParam of index 101).
+    fn sets_watchdog(command: &Command) -> bool {
+        match *command {
+            Command::SetWatchdog { .. } => true,
+            Command::SetParam { index, .. } => {
+                crate::params::target(index) == Some(crate::params::Target::Watchdog)
+            }
+            _ => false,
+        }
     }
 
     /// Swaps in a validated parameter set between two steps.
@@ -637,6 +660,59 @@ mod tests {
         assert_eq!(out.demand.mode, Mode::Idle);
         assert_eq!(a.counters().comm_timeouts, 0);
         assert_eq!(out.demand.force_n[0], SAFE_DEMAND_N);
+    }
+
+    #[test]
+    fn watchdog_off_counts_nothing_and_stays_off() {
+        let mut a = app();
+        // Only the QEMU build accepts parameter 101 = 0; the board build refuses it.
+        let off = Command::SetParam {
+            index: 101,
+            value: 0.0,
+        };
+        if cfg!(feature = "qemu") {
+            assert_eq!(a.command(&off), code::OK);
+        } else {
+            assert_eq!(a.command(&off), code::OUT_OF_RANGE);
+            assert_eq!(a.watchdog().limit, WATCHDOG_SAMPLES);
+            // The rest of this test exercises the QEMU build's off state.
+            a.watchdog.limit = WATCHDOG_OFF;
+        }
+        assert!(a.watchdog().is_off());
+        assert_eq!(a.command(&Command::Start), code::OK);
+        for k in 0..20 {
+            a.on_measurement(&measurement(k)).unwrap();
+            for _ in 0..3 * WATCHDOG_SAMPLES {
+                assert_eq!(a.on_tick(), None);
+            }
+        }
+        assert_eq!(a.watchdog().silent_ticks, 0);
+        assert!(!a.watchdog().expired() && !a.status().link_lost);
+        assert_eq!(a.controller().mode(), Mode::Running);
+        assert_eq!((a.counters().late, a.counters().comm_timeouts), (0, 0));
+        // Off until reset: no way back by command.
+        let rejected = a.counters().rejected;
+        assert_eq!(
+            a.command(&Command::SetParam {
+                index: 101,
+                value: 10.0
+            }),
+            code::WRONG_MODE
+        );
+        assert_eq!(
+            a.command(&Command::SetWatchdog { seconds: 0.005 }),
+            code::WRONG_MODE
+        );
+        assert!(a.watchdog().is_off());
+        assert_eq!(a.counters().rejected, rejected + 2);
+        // Other settings still work.
+        assert_eq!(
+            a.command(&Command::SetParam {
+                index: 100,
+                value: 5.0
+            }),
+            code::OK
+        );
     }
 
     #[test]

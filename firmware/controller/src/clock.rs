@@ -1,41 +1,104 @@
-//! SysTick as a free-running core-clock counter (timing of the control path), the
-//! instruction calibration of the QEMU build, and the stack high-water mark.
+//! The free-running counter that times the control path ([`Clock`]), the instruction
+//! calibration of the QEMU build, and the stack high-water mark.
+//!
+//! - Board: SysTick from the core clock, counting down: core cycles.
+//! - QEMU: TIM5 with prescaler 0, counting up. QEMU 7.2 clocks its STM32 timers at 1 GHz of
+//!   its virtual time whatever RCC says, and under `-icount shift=S` every instruction
+//!   advances virtual time by exactly 2^S ns, so TIM5 counts 2^S per instruction: exactly
+//!   one per instruction at `shift=0`. SysTick is left off in the QEMU build: QEMU runs it
+//!   at 168 MHz of virtual time, 0.168 · 2^S counts per instruction (one count per 5.95
+//!   instructions at `shift=0`), too coarse for per-step figures, and the phase of that
+//!   coarse count at the start of a window depends on host timing under `sleep=off` (two
+//!   runs then differ by a count in their extremes). Without SysTick and with the watchdog
+//!   off QEMU also has no periodic timer to race through while the guest waits for the host.
 
 use core::sync::atomic::{compiler_fence, Ordering};
 
-use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::SYST;
 use mil_firmware::stats::{self, Timing};
 
 /// SysTick reload: the full 24-bit range (about 100 ms at 168 MHz).
+#[cfg(not(feature = "qemu"))]
 const RELOAD: u32 = 0x00FF_FFFF;
 
-/// Starts SysTick from the core clock, counting down, no interrupt (RTIC does not use it:
-/// the app has no monotonic).
-pub fn start(mut syst: SYST) {
-    syst.disable_interrupt();
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(RELOAD);
-    syst.clear_current();
-    syst.enable_counter();
+/// The free-running counter of the control-path timings.
+pub struct Clock {
+    /// TIM5, prescaler 0 (QEMU: one count per nanosecond of virtual time).
+    #[cfg(feature = "qemu")]
+    timer: stm32f4xx_hal::timer::Counter<stm32f4xx_hal::pac::TIM5, { Clock::TIM5_HZ }>,
 }
 
-/// The counter, fenced so that no memory access moves across the read.
-#[inline(always)]
-pub fn now() -> u32 {
-    compiler_fence(Ordering::SeqCst);
-    let t = SYST::get_current();
-    compiler_fence(Ordering::SeqCst);
-    t
+#[cfg(not(feature = "qemu"))]
+impl Clock {
+    /// Starts SysTick from the core clock, counting down, no interrupt (RTIC does not use it:
+    /// the app has no monotonic).
+    pub fn start(mut syst: cortex_m::peripheral::SYST) -> Self {
+        use cortex_m::peripheral::syst::SystClkSource;
+        syst.disable_interrupt();
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(RELOAD);
+        syst.clear_current();
+        syst.enable_counter();
+        Self {}
+    }
+
+    /// The counter, fenced so that no memory access moves across the read.
+    #[inline(always)]
+    pub fn now(&self) -> u32 {
+        compiler_fence(Ordering::SeqCst);
+        let t = cortex_m::peripheral::SYST::get_current();
+        compiler_fence(Ordering::SeqCst);
+        t
+    }
 }
 
 /// Counts from `start` to `end` (correct across one wrap of the down-counter).
+#[cfg(not(feature = "qemu"))]
 #[inline(always)]
 pub fn elapsed(start: u32, end: u32) -> u32 {
     start.wrapping_sub(end) & RELOAD
 }
 
-/// Timings of the control path, kept by the receive task (SysTick counts).
+#[cfg(feature = "qemu")]
+impl Clock {
+    /// TIM5's nominal counter rate: its whole input clock (HSI 16 MHz on APB1), i.e.
+    /// prescaler 0. QEMU counts at 1 GHz of virtual time instead ([`QEMU_COUNT_HZ`]).
+    pub const TIM5_HZ: u32 = 16_000_000;
+
+    /// Starts TIM5 free-running, no interrupt: auto-reload after 268 s at the nominal rate
+    /// (nearly the full 32-bit range; QEMU's counter wraps at 2^32 and the windows are
+    /// short). `None` if the timer refuses the configuration.
+    pub fn start(
+        tim5: stm32f4xx_hal::pac::TIM5,
+        rcc: &mut stm32f4xx_hal::rcc::Rcc,
+    ) -> Option<Self> {
+        use stm32f4xx_hal::prelude::*;
+        let mut timer = tim5.counter::<{ Clock::TIM5_HZ }>(rcc);
+        timer.start(268.secs()).ok()?;
+        Some(Self { timer })
+    }
+
+    /// The counter, fenced so that no memory access moves across the read.
+    #[inline(always)]
+    pub fn now(&self) -> u32 {
+        compiler_fence(Ordering::SeqCst);
+        let t = self.timer.now().ticks();
+        compiler_fence(Ordering::SeqCst);
+        t
+    }
+}
+
+/// QEMU's rate of [`Clock`] in its virtual time: 1 GHz (its STM32 timers' input clock).
+#[cfg(feature = "qemu")]
+pub const QEMU_COUNT_HZ: f64 = 1.0e9;
+
+/// Counts from `start` to `end` (correct across one wrap of the up-counter).
+#[cfg(feature = "qemu")]
+#[inline(always)]
+pub fn elapsed(start: u32, end: u32) -> u32 {
+    end.wrapping_sub(start)
+}
+
+/// Timings of the control path, kept by the receive task ([`Clock`] counts).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Timings {
     /// The control path proper: the frame available as a CAN frame (board: read from the
@@ -66,12 +129,12 @@ impl Timings {
     }
 }
 
-/// Instructions per SysTick count in QEMU (`-icount shift=S`: `1 / (0.168 · 2^S)`), measured
+/// Instructions per [`Clock`] count in QEMU (`-icount shift=S`: `2^-S`), measured at start-up
 /// as in step-bench: `cortex_m::asm::delay(n)` is exactly two instructions per iteration.
 #[cfg(feature = "qemu")]
 #[derive(Clone, Copy, Debug)]
 pub struct Calibration {
-    /// Instructions per SysTick count.
+    /// Instructions per clock count.
     pub instructions_per_count: f64,
     /// Instructions of an empty window (two back-to-back reads).
     pub empty_window: f64,
@@ -86,13 +149,13 @@ fn spin(n: u32) {
 #[cfg(feature = "qemu")]
 impl Calibration {
     /// Measures the conversion (a few million instructions at start-up).
-    pub fn measure() -> Self {
+    pub fn measure(clock: &Clock) -> Self {
         const SHORT: u32 = 1_000;
         const LONG: u32 = 501_000;
         let time = |n: u32| {
-            let t0 = now();
+            let t0 = clock.now();
             spin(core::hint::black_box(n));
-            elapsed(t0, now())
+            elapsed(t0, clock.now())
         };
         let short = time(SHORT);
         let long = time(LONG);
@@ -100,8 +163,8 @@ impl Calibration {
         let instructions_per_count = 2.0 * f64::from(LONG - SHORT) / counts;
         let mut empty = 0u64;
         for _ in 0..1000 {
-            let t0 = now();
-            empty += u64::from(elapsed(t0, now()));
+            let t0 = clock.now();
+            empty += u64::from(elapsed(t0, clock.now()));
         }
         Self {
             instructions_per_count,

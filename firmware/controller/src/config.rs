@@ -51,6 +51,19 @@ pub const WATCHDOG_SAMPLES: u16 = 10;
 /// unsynchronised timer and the measurement stream must not trip), at most 10 000.
 pub const WATCHDOG_SAMPLES_RANGE: (u16, u16) = (2, 10_000);
 
+/// The watchdog limit that switches the communication watchdog off (parameter index 101 =
+/// 0), accepted only where [`WATCHDOG_OFF_ALLOWED`]. Off means: the ticks count nothing and
+/// never trip or step the controller, the QEMU build stops its tick timer at the next tick,
+/// and the limit cannot be changed again until reset.
+pub const WATCHDOG_OFF: u16 = 0;
+
+/// Whether [`WATCHDOG_OFF`] is accepted: only in the QEMU build (feature `qemu`), for the
+/// instruction benchmark under `-icount ...,sleep=off`, where QEMU's virtual time jumps from
+/// timer deadline to timer deadline while the guest waits for the host, so any tick-counting
+/// watchdog trips between lockstep samples (and counts every measurement late). The board
+/// build refuses 0 (out of range): its watchdog cannot be switched off.
+pub const WATCHDOG_OFF_ALLOWED: bool = cfg!(feature = "qemu");
+
 /// Default status period K: one status frame every K controller steps (10 Hz at 2 kHz).
 pub const STATUS_PERIOD_SAMPLES: u16 = (SAMPLE_RATE_HZ / 10) as u16;
 /// Allowed status periods (steps).

@@ -23,16 +23,28 @@
 //!     -serial tcp:127.0.0.1:PORT,server=on,wait=on,nodelay=on \
 //!     -icount shift=3,align=off -kernel target/thumbv7em-none-eabihf/release/mil-firmware
 //! python3 firmware/controller/qemu/smoke.py --build   # the SLCAN smoke test (qemu/README.md)
+//! # the budgets: instructions per control step, flash / static RAM, stack high-water mark
+//! cargo run -p mil-can --example qemu_budget
 //! ```
 //!
 //! `probe-rs run` (from `cargo install probe-rs-tools --locked`) flashes the ELF and prints
 //! the defmt log (RTT). `memory.x` (the workspace's) is copied by `build.rs`, which also
 //! links `defmt.x` into the board build (`cargo:rustc-link-arg-bins`); the QEMU build has no
-//! defmt at all. `-icount shift=3,align=off` makes the instruction figures deterministic (as
-//! step-bench); without `-icount` the firmware runs the same, only the figures become
-//! timing-dependent. Under `-icount ... sleep=off` guest time races ahead while the CPU
-//! waits for the host, which would fire the watchdog early: do not use `sleep=off` with the
-//! firmware.
+//! defmt at all. With `-icount shift=S,align=off` every instruction advances QEMU's virtual
+//! time by 2^S ns; the QEMU build times its control path with TIM5, which QEMU clocks at
+//! 1 GHz of virtual time, so the instruction figures are exact (2^S counts per instruction,
+//! calibrated at start-up); without `-icount` the firmware runs the same, only the figures
+//! become timing-dependent. The budget run uses `-icount shift=0,align=off,sleep=off` (one
+//! count per instruction; virtual time independent of the host): there guest time jumps to
+//! the next timer deadline whenever the CPU waits for the host, which would trip the
+//! watchdog between lockstep samples, so it first switches the watchdog off (parameter 101 =
+//! 0, accepted by the QEMU build only; see [the watchdog](#the-communication-watchdog)).
+//!
+//! Why not SysTick in QEMU: QEMU 7.2 runs SysTick at 168 MHz of virtual time, i.e. 0.168 ·
+//! 2^S counts per instruction (measured: 5.9524 instructions per count at `shift=0`, not
+//! one), too coarse for per-step figures; and under `sleep=off` the phase of that count at
+//! the start of a window depends on host timing, so two runs differed by a count in their
+//! extremes. The board build uses SysTick (core cycles).
 //!
 //! ## Tasks and priorities
 //!
@@ -128,14 +140,19 @@
 //!   its virtual time is not the rig's time. A tick of one sample period would trip on
 //!   every lockstep sample. So the tick period is a build constant,
 //!   [`config::QEMU_TICK_US`] = 50 ms of QEMU virtual time (100 sample periods), with TIM2's
-//!   actual rate measured against SysTick at start-up (QEMU's SysTick runs at 168 MHz of
-//!   virtual time). With N = 10 the trip comes after 0.5 s of virtual time without a
+//!   actual rate measured against TIM5 at start-up (QEMU's STM32 timers count at 1 GHz of
+//!   virtual time before their prescaler). With N = 10 the trip comes after 0.5 s of virtual time without a
 //!   measurement (about 0.8 s of wall time at `-icount shift=3`), far beyond any lockstep
 //!   gap. Everything the watchdog does is counted in ticks, not time: a test stops the
 //!   measurements and counts the Demand frames the ticks send (the N-th silent tick trips
 //!   and sends the first one; each further tick ramps by `safe_ramp_rate · dt` = 25 N).
 //!   The logic itself is tick-exact and unit-tested on the host
 //!   ([`application::Application::on_tick`]).
+//! - QEMU build only: parameter 101 = 0 switches the watchdog off until reset
+//!   ([`config::WATCHDOG_OFF`]): the ticks count nothing, the next tick stops TIM2, and a
+//!   later watchdog setting is refused (WRONG_MODE). For the budget run under
+//!   `-icount ...,sleep=off`, where virtual time leaps while the guest waits for the host.
+//!   The board build refuses 0 (out of range): its watchdog cannot be switched off.
 //!
 //! ## Safe state on panic and HardFault
 //!
@@ -172,21 +189,26 @@
 //! Commands: 1 Start (Idle → Running), 2 Stop, 3 ClearFault, 4 SetParam (index and value as
 //! in [`params`]), 5 SetWatchdog (seconds).
 //!
-//! ## Measured (QEMU 7.2, `-icount shift=3`, Rust 1.95, release; `qemu/smoke.py`, 3201 samples)
+//! ## Measured (`cargo run -p mil-can --example qemu_budget`)
+//!
+//! QEMU 7.2, `-icount shift=0,align=off,sleep=off`, Rust 1.95, release; the paper's tyre on
+//! the simulated rig, 4000 lockstep samples of pink road (0.5 mm RMS), demand frames
+//! bit-identical to the host mirror's. Instructions, not cycles (QEMU models no pipeline,
+//! flash wait states or FPU latency); identical in every run.
 //!
 //! | figure | value |
 //! | --- | --- |
-//! | control path: CAN frame received → Demand frame encoded (decode, step with counters, encode) | 515 instructions mean (508–544; target ≤ 1000) |
-//! | parts | decode 180, step 283, encode 53 |
-//! | with QEMU's SLCAN transport (last byte read → Demand line queued) | 1043 mean (1021–1091; SLCAN parse 377 and format 151 stand in for the bxCAN FIFO read and mailbox write) |
-//! | stack high-water mark (stack painting) | 3.1 KiB (QEMU run: 3120 B of the 127 KiB region) |
-//! | board ELF: flash (vector table + .text + .rodata + .data) | 25 404 B of 1 MiB |
+//! | control path: CAN frame received → Demand frame encoded, ready to queue (decode, step with counters, encode) | 515.1 instructions mean (511–536 over 4000 steps; target ≤ 1000) |
+//! | parts | decode 178.0, step 283.1, encode 55.0 |
+//! | with QEMU's SLCAN transport (last byte read → Demand line queued) | 1056.6 mean (1021–1107; SLCAN parse 393.4 and format 148.0 stand in for the bxCAN FIFO read and mailbox write) |
+//! | stack high-water mark (stack painting, QEMU run, measured before the report formats anything) | 1020–1492 B of the 127 KiB region over five budget runs and the smoke test (where the receive interrupt preempts the lower tasks depends on host timing; earlier reports included the report's own float formatting, 3120 B) |
+//! | board ELF: flash (vector table + .text + .rodata + .data) | 25 424 B of 1 MiB |
 //! | board ELF: static RAM (.data + .bss + .uninit, incl. the 1 KiB RTT buffer) | 1 704 B of 128 KiB |
-//! | QEMU ELF: flash / static RAM | 61 352 B / 828 B (core::fmt for the report) |
+//! | QEMU ELF: flash / static RAM | 62 432 B / 828 B (core::fmt for the report) |
 //!
-//! Sizes: `llvm-size -A target/thumbv7em-none-eabihf/release/mil-firmware`. The figures
-//! are instructions, not cycles (QEMU models no pipeline or flash wait states); on the board
-//! the SysTick counts are core cycles and are logged over defmt every 20 000 samples.
+//! Sizes from the ELF section headers (`mil_can::footprint`; the same as
+//! `llvm-size -A`). On the board the clock is SysTick, which counts core cycles; the board
+//! logs the control path's cycles over defmt every 20 000 samples.
 //!
 //! ## `unsafe`
 //!

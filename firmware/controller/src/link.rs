@@ -229,7 +229,7 @@ pub mod stage {
 }
 
 /// [`on_frame`] with a probe called at the [`stage`] boundaries of a measurement (the
-/// firmware reads SysTick there to time the parts of the control path).
+/// firmware reads its clock there to time the parts of the control path).
 pub fn on_frame_probed<T: Transport, P: FnMut(usize)>(
     app: &mut Application,
     frame: &RawFrame,

@@ -66,6 +66,7 @@ mod app {
     pub struct Receive {
         rx: port::Rx,
         sender: Sender<'static, Request, QUEUE>,
+        clock: clock::Clock,
         timings: Timings,
         #[cfg(feature = "qemu")]
         qemu: Qemu,
@@ -82,12 +83,16 @@ mod app {
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
-        clock::start(cx.core.SYST);
-        #[cfg(feature = "qemu")]
-        let calibration = clock::Calibration::measure();
+        // The control-path clock: SysTick on the board, TIM5 in QEMU (`clock` module).
+        #[cfg(not(feature = "qemu"))]
+        let clock = clock::Clock::start(cx.core.SYST);
         let Some(hw) = port::init(cx.device) else {
             crate::fatal::stop(format_args!("peripheral set-up refused"));
         };
+        #[cfg(feature = "qemu")]
+        let clock = hw.clock;
+        #[cfg(feature = "qemu")]
+        let calibration = clock::Calibration::measure(&clock);
         let app = match Application::new(COUNTER_MODULUS) {
             Ok(app) => app,
             Err(_) => crate::fatal::stop(format_args!("default parameters rejected")),
@@ -105,12 +110,14 @@ mod app {
                 can: Receive {
                     rx: hw.rx,
                     sender,
+                    clock,
                     timings: Timings::default(),
                 },
                 #[cfg(feature = "qemu")]
                 uart: Receive {
                     rx: hw.rx,
                     sender,
+                    clock,
                     timings: Timings::default(),
                     qemu: Qemu {
                         lines: mil_frames::slcan::LineBuffer::new(),
@@ -173,24 +180,25 @@ mod app {
         let Receive {
             rx,
             sender,
+            clock,
             timings,
             ..
         } = cx.local.can;
         let can_rx::SharedResources {
             mut app, mut tx, ..
         } = cx.shared;
-        let mut t0 = clock::now();
+        let mut t0 = clock.now();
         // At most the FIFO's depth per interrupt, plus one (a frame arriving meanwhile).
         for _ in 0..4 {
             match rx.0.receive() {
                 Ok(frame) => {
-                    let received = clock::now();
+                    let received = clock.now();
                     let mut stamps = [received; 4];
                     let handled = app.lock(|a| {
                         tx.lock(|t| {
                             link::on_any_frame(a, &frame, t, &mut |k| {
                                 if let Some(s) = stamps.get_mut(k) {
-                                    *s = clock::now();
+                                    *s = clock.now();
                                 }
                             })
                         })
@@ -209,7 +217,7 @@ mod app {
                             used
                         );
                     }
-                    t0 = clock::now();
+                    t0 = clock.now();
                 }
                 Err(nb::Error::WouldBlock) => break,
                 // FIFO overrun: frames were lost; the measurement counter counts them.
@@ -226,6 +234,7 @@ mod app {
         let Receive {
             rx,
             sender,
+            clock,
             timings,
             qemu,
         } = cx.local.uart;
@@ -241,7 +250,7 @@ mod app {
                     continue;
                 }
             };
-            let t0 = clock::now();
+            let t0 = clock.now();
             let line = match qemu.lines.push(byte) {
                 Ok(Some(line)) => line,
                 Ok(None) => continue,
@@ -255,13 +264,13 @@ mod app {
             };
             match qemu.session.on_line(line) {
                 link::LineAction::Frame(frame) => {
-                    let received = clock::now();
+                    let received = clock.now();
                     let mut stamps = [received; 4];
                     let handled = app.lock(|a| {
                         tx.lock(|t| {
                             link::on_frame_probed(a, &frame, t, &mut |k| {
                                 if let Some(s) = stamps.get_mut(k) {
-                                    *s = clock::now();
+                                    *s = clock.now();
                                 }
                             })
                         })
@@ -289,12 +298,19 @@ mod app {
     }
 
     /// The watchdog tick (board: every sample period; QEMU: see `config::QEMU_TICK_US`).
+    /// QEMU build: once the watchdog is switched off (`config::WATCHDOG_OFF`) the tick stops
+    /// its timer for good.
     #[task(binds = TIM2, priority = 2, shared = [app, tx], local = [tick])]
     fn watchdog(cx: watchdog::Context) {
         cx.local.tick.clear();
         let watchdog::SharedResources {
             mut app, mut tx, ..
         } = cx.shared;
+        #[cfg(feature = "qemu")]
+        if app.lock(|a| a.watchdog().is_off()) {
+            cx.local.tick.stop();
+            return;
+        }
         app.lock(|a| {
             let trips = a.counters().comm_timeouts;
             if let Some(out) = a.on_tick() {
@@ -373,6 +389,9 @@ mod report {
         calibration: &Calibration,
         tick: &TickInfo,
     ) -> ! {
+        // Before any formatting: core::fmt's float printing below is deeper than anything
+        // the application does, and would otherwise be measured as well.
+        let stack_used = clock::stack_used();
         let c = app.counters();
         let s = app.status();
         hprintln!(
@@ -391,7 +410,7 @@ mod report {
         );
         let c = &timings.core;
         hprintln!(
-            "mil-firmware control path (CAN frame received -> demand frame encoded; decode, step, encode): mean {:.1} instructions, min {:.0}, max {:.0}, first {:.0} over {} samples ({:.4} instructions per SysTick count)",
+            "mil-firmware control path (CAN frame received -> demand frame encoded; decode, step, encode): mean {:.1} instructions, min {:.0}, max {:.0}, first {:.0} over {} samples ({:.4} instructions per TIM5 count)",
             calibration.instructions(c.mean()),
             calibration.instructions(f64::from(c.min)),
             calibration.instructions(f64::from(c.max)),
@@ -419,16 +438,48 @@ mod report {
         );
         let (_, region) = clock::stack_region();
         hprintln!(
-            "mil-firmware stack: {} bytes used of {} (high-water mark by stack painting)",
-            clock::stack_used(),
+            "mil-firmware stack: {} bytes used of {} (high-water mark by stack painting, up to this report)",
+            stack_used,
             region
         );
+        let w = app.watchdog();
         hprintln!(
-            "mil-firmware watchdog: tick {:.0} us of QEMU time ({} TIM2 counts, {:.4} TIM2 counts per SysTick count), N = {}",
+            "mil-firmware watchdog: tick {:.0} us of QEMU time ({} TIM2 counts, {:.4} TIM2 counts per TIM5 count), N = {}{}",
             tick.period_us,
             tick.timer_counts,
-            tick.timer_per_systick,
-            app.watchdog().limit
+            tick.timer_per_count,
+            w.limit,
+            if w.is_off() { " (off: tick timer stopped)" } else { "" }
+        );
+        // The same figures once more as `key=value` pairs on one line, for tools
+        // (`mil-can`'s `qemu_budget` example).
+        let n = app.counters();
+        hprintln!(
+            "mil-firmware figures: measurements={} steps={} missed={} late={} malformed={} comm_timeouts={} core_count={} core_min={:.1} core_mean={:.2} core_max={:.1} core_first={:.1} path_min={:.1} path_mean={:.2} path_max={:.1} parse={:.2} decode={:.2} step={:.2} encode={:.2} format={:.2} instructions_per_count={:.6} empty_window={:.3} stack_used={} stack_region={} watchdog_limit={}",
+            n.measurements,
+            n.steps,
+            n.missed,
+            n.late,
+            n.malformed,
+            n.comm_timeouts,
+            c.count,
+            calibration.instructions(f64::from(c.min)),
+            calibration.instructions(c.mean()),
+            calibration.instructions(f64::from(c.max)),
+            calibration.instructions(f64::from(c.first)),
+            calibration.instructions(f64::from(p.min)),
+            calibration.instructions(p.mean()),
+            calibration.instructions(f64::from(p.max)),
+            parse,
+            decode,
+            step,
+            encode,
+            format,
+            calibration.instructions_per_count,
+            calibration.empty_window,
+            stack_used,
+            region,
+            w.limit
         );
         debug::exit(debug::EXIT_SUCCESS);
         loop {

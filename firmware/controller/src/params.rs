@@ -22,10 +22,12 @@
 //! | 10 | command filter: number of sections applied | – | integer 0 ..= 4 |
 //! | 11 + 5 s + c | command filter section `s` (0–3), coefficient `c` = β0, β1, β2, α1, α2 (delta form) | – | finite; applied sections stable |
 //! | 100 | status period K (controller steps per status frame) | steps | integer 1 ..= 60 000 |
-//! | 101 | communication watchdog N (silent ticks before a trip) | ticks | integer 2 ..= 10 000 |
+//! | 101 | communication watchdog N (silent ticks before a trip) | ticks | integer 2 ..= 10 000 (QEMU build: or 0, off) |
 //!
 //! Indices 100 and 101 are firmware settings, not controller parameters: they take effect at
-//! once (no validation by model-core). Filter coefficients of sections beyond the applied count
+//! once (no validation by model-core). The QEMU build also accepts 101 = 0, the watchdog off
+//! until reset, for the instruction benchmark ([`crate::config::WATCHDOG_OFF`]); the board
+//! build refuses it. Filter coefficients of sections beyond the applied count
 //! are not checked until the count includes them, so a filter is loaded by writing the count
 //! 0, then the coefficients, then the count. Changing the filter while running gives a bounded
 //! transient (the section states are kept); prefer changing it in Idle (a start resets the
@@ -33,7 +35,10 @@
 
 use model_core::{ParamError, MAX_SECTIONS};
 
-use crate::config::{Params, SAMPLE_RATE_HZ, STATUS_PERIOD_RANGE, WATCHDOG_SAMPLES_RANGE};
+use crate::config::{
+    Params, SAMPLE_RATE_HZ, STATUS_PERIOD_RANGE, WATCHDOG_OFF, WATCHDOG_OFF_ALLOWED,
+    WATCHDOG_SAMPLES_RANGE,
+};
 
 /// Result codes of a CommandAck (0: accepted and applied). Codes below 128 are mil-frames'
 /// decoding errors (`DecodeError::code`, e.g. a NaN value or an unknown command number,
@@ -119,8 +124,18 @@ pub fn status_period(value: f32) -> Result<u16, u8> {
     integer_in(value, STATUS_PERIOD_RANGE)
 }
 
-/// The watchdog limit N (ticks) from a parameter value (index 101: N itself).
+/// The watchdog limit N (ticks) from a parameter value (index 101: N itself); 0
+/// ([`WATCHDOG_OFF`]) only in the QEMU build ([`WATCHDOG_OFF_ALLOWED`]).
 pub fn watchdog_limit(value: f32) -> Result<u16, u8> {
+    watchdog_limit_in(value, WATCHDOG_OFF_ALLOWED)
+}
+
+/// [`watchdog_limit`] with the build's choice made explicit: `off_allowed` accepts exactly
+/// 0.0 as [`WATCHDOG_OFF`] besides the range.
+pub fn watchdog_limit_in(value: f32, off_allowed: bool) -> Result<u16, u8> {
+    if off_allowed && value == 0.0 {
+        return Ok(WATCHDOG_OFF);
+    }
     integer_in(value, WATCHDOG_SAMPLES_RANGE)
 }
 
@@ -258,6 +273,18 @@ mod tests {
         assert_eq!(watchdog_limit(1.0), Err(code::OUT_OF_RANGE));
         assert_eq!(watchdog_limit(f32::INFINITY), Err(code::NOT_FINITE));
         assert_eq!(watchdog_limit(25.0), Ok(25));
+        // Off (0) only where the build allows it (the QEMU build), never a fraction.
+        assert_eq!(watchdog_limit_in(0.0, false), Err(code::OUT_OF_RANGE));
+        assert_eq!(watchdog_limit_in(0.0, true), Ok(WATCHDOG_OFF));
+        assert_eq!(watchdog_limit_in(0.5, true), Err(code::OUT_OF_RANGE));
+        assert_eq!(watchdog_limit_in(1.0, true), Err(code::OUT_OF_RANGE));
+        assert_eq!(watchdog_limit_in(f32::NAN, true), Err(code::NOT_FINITE));
+        assert_eq!(watchdog_limit_in(25.0, true), Ok(25));
+        assert_eq!(
+            watchdog_limit(0.0).is_ok(),
+            cfg!(feature = "qemu"),
+            "off only in the QEMU build"
+        );
         assert_eq!(status_period(0.0), Err(code::OUT_OF_RANGE));
         assert_eq!(status_period(2.5), Err(code::OUT_OF_RANGE));
         assert_eq!(watchdog_from_seconds(0.005), Ok(10));

@@ -1,11 +1,13 @@
 //! The hardware of each build behind one small interface: clocks, the frame transport
-//! (transmit half [`Tx`], receive half [`Rx`]) and the watchdog tick timer [`Tick`].
+//! (transmit half [`Tx`], receive half [`Rx`]), the watchdog tick timer [`Tick`] and, in the
+//! QEMU build, the control-path clock.
 //!
 //! | | board (default) | QEMU (`--features qemu`) |
 //! | --- | --- | --- |
 //! | clocks | HSE 8 MHz → PLL → 168 MHz (APB1 42 MHz) | HSI 16 MHz (QEMU emulates no PLL) |
 //! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX), 1 Mbit/s, FIFO0 interrupt `CAN1_RX0` | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes |
-//! | tick | TIM2 at the sample rate (2 kHz) | TIM2 every [`QEMU_TICK_US`](mil_firmware::config::QEMU_TICK_US) of QEMU time |
+//! | tick | TIM2 at the sample rate (2 kHz) | TIM2 every [`QEMU_TICK_US`](mil_firmware::config::QEMU_TICK_US) of QEMU time; stopped for good once the watchdog is switched off |
+//! | control-path clock ([`crate::clock::Clock`]) | SysTick, core cycles (started by `main`) | TIM5, prescaler 0: 1 GHz of QEMU virtual time, one count per instruction at `-icount shift=0` (started here) |
 
 use mil_firmware::link::Transport;
 
@@ -129,7 +131,7 @@ mod board {
     }
 }
 
-/// QEMU: SLCAN over USART1, TIM2 measured against SysTick.
+/// QEMU: SLCAN over USART1, TIM2 measured against the clock (TIM5).
 #[cfg(feature = "qemu")]
 mod qemu {
     use embedded_hal_nb::serial::Write as _;
@@ -143,9 +145,8 @@ mod qemu {
     use stm32f4xx_hal::timer::{Counter, Event, Flag};
 
     use super::Port;
+    use crate::clock::{elapsed, Clock, QEMU_COUNT_HZ};
 
-    /// QEMU's SysTick rate in its virtual time (the machine's core clock, whatever RCC says).
-    pub const QEMU_SYSTICK_HZ: f64 = 168.0e6;
     /// Longest SLCAN line with its `\r`.
     const LINE: usize = mil_frames::slcan::MAX_LINE + 1;
 
@@ -211,13 +212,23 @@ mod qemu {
         pub fn clear(&mut self) {
             self.0.clear_flags(Flag::Update);
         }
+
+        /// Stops the timer and its interrupt for good (the watchdog switched off): under
+        /// `-icount ...,sleep=off` QEMU then has no timer of ours to jump to while the guest
+        /// waits for the host.
+        pub fn stop(&mut self) {
+            self.0.unlisten(Event::Update);
+            // Err only if already stopped.
+            let _ = self.0.cancel();
+            self.0.clear_flags(Flag::Update);
+        }
     }
 
     /// How the tick timer was set up.
     #[derive(Clone, Copy, Debug)]
     pub struct TickInfo {
-        /// TIM2 counts per SysTick count, measured at start-up.
-        pub timer_per_systick: f64,
+        /// TIM2 counts per clock (TIM5) count, measured at start-up.
+        pub timer_per_count: f64,
         /// TIM2 counts per tick (auto-reload + 1).
         pub timer_counts: u32,
         /// The tick period this gives in QEMU's virtual time (µs).
@@ -234,11 +245,15 @@ mod qemu {
         pub tick: Tick,
         /// The tick's calibration.
         pub tick_info: TickInfo,
+        /// The control-path clock (TIM5), running.
+        pub clock: Clock,
     }
 
-    /// Clocks (HSI), USART1 and TIM2. `None` if a peripheral refuses its configuration.
+    /// Clocks (HSI), the control-path clock (TIM5), USART1 and TIM2. `None` if a peripheral
+    /// refuses its configuration.
     pub fn init(dp: pac::Peripherals) -> Option<Hardware> {
         let mut rcc = dp.RCC.freeze(Config::hsi());
+        let clock = Clock::start(dp.TIM5, &mut rcc)?;
         let gpioa = dp.GPIOA.split(&mut rcc);
         let serial = Serial::new(
             dp.USART1,
@@ -248,24 +263,20 @@ mod qemu {
         )
         .ok()?;
         let (usart, mut rx) = serial.split();
-        // TIM2 runs at a rate of QEMU's choosing: measure it against SysTick (168 MHz in
-        // virtual time) over a busy wait, then program the tick for QEMU_TICK_US.
+        // TIM2 runs at a rate of QEMU's choosing: measure it against the clock (TIM5, 1 GHz
+        // of virtual time) over a busy wait, then program the tick for QEMU_TICK_US.
         let mut tick = dp.TIM2.counter::<1_000_000>(&mut rcc);
         tick.start(1_000_000_000.micros()).ok()?;
         let c0 = tick.now().ticks();
-        let s0 = crate::clock::now();
+        let s0 = clock.now();
         cortex_m::asm::delay(200_000);
         let c1 = tick.now().ticks();
-        let s1 = crate::clock::now();
-        let systick = f64::from(crate::clock::elapsed(s0, s1)).max(1.0);
-        let measured = f64::from(c1.wrapping_sub(c0)) / systick;
-        // QEMU 7.2 clocks its STM32 timers at 1 GHz before the prescaler (here 16 - 1).
-        let timer_per_systick = if measured > 0.0 {
-            measured
-        } else {
-            1.0e9 / 16.0 / QEMU_SYSTICK_HZ
-        };
-        let wanted = f64::from(QEMU_TICK_US) * 1.0e-6 * QEMU_SYSTICK_HZ * timer_per_systick;
+        let s1 = clock.now();
+        let counts = f64::from(elapsed(s0, s1)).max(1.0);
+        let measured = f64::from(c1.wrapping_sub(c0)) / counts;
+        // QEMU 7.2 clocks its STM32 timers at 1 GHz before the prescaler (TIM2: 16 - 1).
+        let timer_per_count = if measured > 0.0 { measured } else { 1.0 / 16.0 };
+        let wanted = f64::from(QEMU_TICK_US) * 1.0e-6 * QEMU_COUNT_HZ * timer_per_count;
         let timer_counts = (wanted as u32).max(2);
         tick.start(timer_counts.micros()).ok()?;
         tick.listen(Event::Update);
@@ -279,10 +290,11 @@ mod qemu {
             rx: Rx(rx),
             tick: Tick(tick),
             tick_info: TickInfo {
-                timer_per_systick,
+                timer_per_count,
                 timer_counts,
-                period_us: f64::from(timer_counts) / timer_per_systick / QEMU_SYSTICK_HZ * 1.0e6,
+                period_us: f64::from(timer_counts) / timer_per_count / QEMU_COUNT_HZ * 1.0e6,
             },
+            clock,
         })
     }
 }

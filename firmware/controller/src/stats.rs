@@ -1,6 +1,7 @@
-//! Timing statistics (SysTick counts of the control path) and the stack high-water mark.
+//! Timing statistics (clock counts of the control path: SysTick core cycles on the board,
+//! TIM5 counts of QEMU's virtual nanoseconds in the QEMU build) and the stack high-water mark.
 
-/// Minimum, maximum and mean of a series of timing windows (SysTick counts).
+/// Minimum, maximum and mean of a series of timing windows (clock counts).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Timing {
     /// Windows recorded.

@@ -13,6 +13,11 @@
 //!   USART1 on a free TCP port, and returns the connected, opened [`SlcanTcp`].
 //! - [`RemoteBoard`]: `mil_rig::harness::Board<1>` over any transport, with a host mirror of
 //!   the firmware's controller that checks every demand frame bit for bit.
+//! - [`footprint`]: flash and static RAM of a firmware ELF from its section headers.
+//!
+//! The firmware's budgets (instructions per control step in QEMU with
+//! `-icount shift=0,align=off,sleep=off`, flash and static RAM, stack high-water mark):
+//! `cargo run -p mil-can --example qemu_budget` (`examples/qemu_budget.rs`).
 //!
 //! The lockstep test (`tests/qemu_lockstep.rs`) needs the firmware ELF, built by
 //! `cargo build -p mil-firmware --target thumbv7em-none-eabihf --release --features qemu`,
@@ -21,6 +26,7 @@
 #![deny(missing_docs)]
 
 mod board;
+pub mod footprint;
 mod qemu;
 mod slcan;
 #[cfg(feature = "socketcan")]

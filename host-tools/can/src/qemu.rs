@@ -39,12 +39,17 @@ pub fn find_firmware_elf() -> Option<PathBuf> {
 pub struct QemuOptions {
     /// The QEMU binary (default `qemu-system-arm`).
     pub program: PathBuf,
-    /// `Some(S)` adds `-icount shift=S,align=off` (deterministic instruction counts for the
-    /// firmware's SysTick-based figures); `None` (default) runs QEMU without `-icount`.
-    /// Lockstep works with either (`shared/embedded-notes.md`). `sleep=off` is not
-    /// offered: with it guest time races ahead of wall time while the guest waits for the
-    /// host, so the firmware's watchdog tick would trip between lockstep samples.
+    /// `Some(S)` adds `-icount shift=S,align=off`: every instruction advances QEMU's virtual
+    /// time by 2^S ns, so the firmware's instruction figures (timed with TIM5, which counts
+    /// virtual nanoseconds) are exact; `None` (default) runs QEMU without `-icount`.
+    /// Lockstep works with either.
     pub icount_shift: Option<u8>,
+    /// With `icount_shift`: `false` adds `sleep=off` (virtual time no longer follows wall
+    /// time while the guest waits: it jumps to the next timer deadline, so the instruction
+    /// figures do not depend on host timing). The firmware's watchdog ticks would then
+    /// race and trip between lockstep samples: switch it off first (parameter 101 = 0,
+    /// accepted by the QEMU build only), as the `qemu_budget` example does. Default `true`.
+    pub icount_sleep: bool,
     /// How long to wait for the TCP connection and the SLCAN handshake.
     pub open_timeout: Duration,
 }
@@ -54,6 +59,7 @@ impl Default for QemuOptions {
         Self {
             program: PathBuf::from("qemu-system-arm"),
             icount_shift: None,
+            icount_sleep: true,
             open_timeout: Duration::from_secs(30),
         }
     }
@@ -120,7 +126,13 @@ impl Qemu {
         .arg("-serial")
         .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"));
         if let Some(shift) = options.icount_shift {
-            cmd.arg("-icount").arg(format!("shift={shift},align=off"));
+            let sleep = if options.icount_sleep {
+                ""
+            } else {
+                ",sleep=off"
+            };
+            cmd.arg("-icount")
+                .arg(format!("shift={shift},align=off{sleep}"));
         }
         cmd.arg("-kernel")
             .arg(elf)
