@@ -20,7 +20,7 @@ use model_core::{DemandLimits, TyreParams};
 use std::time::Instant;
 
 /// Closed-loop runs timed; the median is reported.
-const REPEATS: usize = 7;
+const REPEATS: usize = 15;
 
 /// Thread CPU time (s) of `plant` alone over the run `h` at `fs` (Hz): `sample` and
 /// `advance` per control step with the run's demand, and the road (m) when `road` is set.

@@ -259,13 +259,22 @@ impl ForceActuator {
     /// [`ForceActuator::has_linear_regime`].
     #[inline]
     pub fn in_linear_regime(&self, u: f64, demanded: f64, load_pressure_pa: f64) -> bool {
-        if !self.has_linear_regime() {
-            return false;
-        }
-        let p = &self.params;
-        let drop = (p.supply_pressure_pa - demanded.signum() * load_pressure_pa).max(0.0);
+        self.has_linear_regime() && self.linear_regime_holds(u, demanded, load_pressure_pa)
+    }
+
+    /// [`ForceActuator::in_linear_regime`] for an actuator known to have a linear regime
+    /// (the plant's exact steps test it every internal step).
+    #[inline]
+    pub(crate) fn linear_regime_holds(&self, u: f64, demanded: f64, load_pressure_pa: f64) -> bool {
+        // `signum(demanded) · P_L` (NaN `demanded` fails the last test anyway).
+        let signed = if demanded.is_sign_negative() {
+            -load_pressure_pa
+        } else {
+            load_pressure_pa
+        };
+        let drop = (self.params.supply_pressure_pa - signed).max(0.0);
         // `root ≥ 1e-3 ∧ |demanded| ≤ limit·root` with `root = √(drop/P_s)`, squared: the
-        // same set without a square root (this is tested every internal step).
+        // same set without a square root.
         let ratio = drop * self.inverse_supply_pressure;
         u.abs() <= self.spool_limit
             && ratio >= 1e-6

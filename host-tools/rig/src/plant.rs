@@ -551,9 +551,10 @@ impl<const R: usize> LinearModel<R> {
                 RegimeTest::NonNegative => values.next().is_some_and(|v| *v >= 0.0),
                 RegimeTest::Above(bound) => values.next().is_some_and(|v| *v > bound),
                 RegimeTest::Actuator(j) => match (values.next(), values.next(), values.next()) {
+                    // The model exists only for actuators with a linear regime.
                     (Some(u), Some(demanded), Some(pl)) => actuators
                         .get(j)
-                        .is_some_and(|a| a.in_linear_regime(*u, *demanded, *pl)),
+                        .is_some_and(|a| a.linear_regime_holds(*u, *demanded, *pl)),
                     _ => false,
                 },
             };
@@ -589,11 +590,11 @@ impl<const R: usize> LinearModel<R> {
         inside
     }
 
-    /// Output `k` (0: `y`, 1: `ẏ`, 2: `F`) per channel at the last sample in the regime.
-    fn output(&self, k: usize) -> &[f64] {
-        let ch = self.parts.shape.channels;
-        let start = self.outputs_at + k * ch;
-        self.sampled.get(start..start + ch).unwrap_or(&[])
+    /// The outputs `[y; ẏ; F]` (per channel each) at the last sample in the regime.
+    fn outputs(&self) -> &[f64] {
+        let start = self.outputs_at;
+        let len = 3 * self.parts.shape.channels;
+        self.sampled.get(start..start + len).unwrap_or(&[])
     }
 
     /// The control period `period_s` (s) from the last sample's point in one product (see
@@ -735,8 +736,9 @@ pub struct Plant {
     fixed: Option<Fixed>,
     linear: Option<Linear>,
     /// The last [`Plant::sample`] took the exact path at the current state: its outputs
-    /// are the linear model's.
+    /// are the linear model's, `[y; ẏ; F]` in `linear_out`.
     linear_outputs: bool,
+    linear_out: Vec<f64>,
     /// `(duration (s), internal steps, step (s))` of the last [`Plant::advance`], so that
     /// the usual constant duration costs no divisions.
     advance_split: (f64, usize, f64),
@@ -825,8 +827,14 @@ fn row(m: &[f64], i: usize, n: usize) -> &[f64] {
 /// `dst = src` over the shorter length.
 #[inline]
 fn copy(dst: &mut [f64], src: &[f64]) {
-    for (d, s) in dst.iter_mut().zip(src) {
-        *d = *s;
+    match (dst, src) {
+        // One value (a channel's demand, a road input) without a `memcpy` call.
+        ([d], [s, ..]) => *d = *s,
+        (dst, src) => {
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d = *s;
+            }
+        }
     }
 }
 
@@ -1054,6 +1062,7 @@ impl Plant {
             fixed,
             linear: None,
             linear_outputs: false,
+            linear_out: vec![0.0; 3 * channels],
             advance_split: (f64::NAN, 1, f64::NAN),
             exact_steps: true,
             counts: StepCounts::default(),
@@ -1681,8 +1690,12 @@ impl Plant {
                     Drive::Actuators(a) => a,
                     Drive::Ideal(_) => &[],
                 };
-                let state = &self.state;
-                let inside = with_linear!(linear, m => m.sample(state, actuators, (demand, road, road_rate)));
+                let (state, outputs) = (&self.state, &mut self.linear_out);
+                let inside = with_linear!(linear, m => {
+                    let inside = m.sample(state, actuators, (demand, road, road_rate));
+                    copy(outputs, m.outputs());
+                    inside
+                });
                 if inside {
                     self.first_stage_ready = false;
                     self.linear_outputs = true;
@@ -1703,9 +1716,8 @@ impl Plant {
     /// Output `k` (0: position, 1: velocity, 2: force) of the last [`Plant::sample`].
     fn sampled_output(&self, k: usize) -> &[f64] {
         if self.linear_outputs {
-            if let Some(linear) = &self.linear {
-                return with_linear!(linear, m => m.output(k));
-            }
+            let ch = self.channels;
+            return self.linear_out.get(k * ch..(k + 1) * ch).unwrap_or(&[]);
         }
         match k {
             0 => &self.y,
