@@ -3,11 +3,11 @@
 //! Units are SI and named in every key (`_m`, `_hz`, `_n_per_m`, ...). Unknown keys are
 //! errors, so a misspelt parameter never silently falls back to a default.
 
-use crate::signals::RoadInput;
+use crate::signals::{RoadInput, SpeedInput, SpeedProfile};
 use anyhow::{bail, Context, Result};
 use model_core::{
-    AeroParams, CascadeCoefficients, ControllerParams, DemandLimits, PreparedParams,
-    TyreModelParams, TyreParams,
+    AeroParams, CascadeCoefficients, Causality, ControllerParams, DemandLimits, InterfaceParams,
+    PreparedParams, SubstructureModel, SubstructureParams, TyreModelParams, TyreParams, MAX_DOF,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -27,7 +27,14 @@ pub enum ModelKind {
     Tyre,
     /// Aerodynamic down force (front and rear down-force actuators).
     Aero,
+    /// A general mass-spring-damper substructure (model-core's `SubstructureModel`, up to
+    /// 6 DOFs) computing the interface force through its `B_i` for force-controlled
+    /// actuators: the paper's configuration 4, e.g. its 2-DOF example.
+    Substructure,
 }
+
+/// Largest number of actuator channels of a substructure run.
+pub const MAX_SUBSTRUCTURE_CHANNELS: usize = 4;
 
 /// A whole run configuration.
 #[derive(Clone, Debug, Deserialize)]
@@ -41,6 +48,11 @@ pub struct Config {
     pub tyre: Option<TyreSection>,
     /// Aero parameters (used when `model.kind = "aero"`).
     pub aero: Option<AeroSection>,
+    /// Vehicle speed over the run (aero model); `[aero] speed_m_per_s` is the shorthand for
+    /// a constant speed. Give one of the two.
+    pub speed: Option<SpeedInput>,
+    /// The numerical substructure (used when `model.kind = "substructure"`).
+    pub substructure: Option<SubstructureSection>,
     /// Demand limits and the safe state, the same for every channel.
     pub limits: LimitsSection,
     /// Road input.
@@ -113,8 +125,66 @@ pub struct AeroSection {
     pub front_axle_m: f32,
     /// Centroid to rear axle (m).
     pub rear_axle_m: f32,
-    /// Vehicle speed during the run (m/s).
-    pub speed_m_per_s: f32,
+    /// Constant vehicle speed during the run (m/s); or give a `[speed]` table instead.
+    #[serde(default)]
+    pub speed_m_per_s: Option<f32>,
+}
+
+/// `[substructure]`: the numerical part on the board, model-core's general mass-spring-damper
+/// substructure with `B_i` numerical under force control (configuration 4): per channel it
+/// turns the measured attachment position `x̂_p` into the interface force
+/// `F_i = k_i (x_n,d − x̂_p) + c_i (ẋ_n,d − ẋ̂_p)` it demands of the actuator, and its masses
+/// move under `−F_i` and their road springs:
+/// `M ẍ + C' ẋ + K' x = G_k w + G_c ẇ − Σ_c e_d(c) F_i,c` (`K'`, `C'`: the matrices below
+/// plus the road springs and dampers on the diagonal).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SubstructureSection {
+    /// DOF names, 1 to 6.
+    pub dofs: Vec<String>,
+    /// Mass matrix `M` (kg; kg m² for rotations), rows; symmetric positive definite.
+    pub mass: Vec<Vec<f32>>,
+    /// Damping matrix `C` between the masses and to fixed ground (N s/m), rows; the road
+    /// dampers of `[[substructure.channels]] road` are added to its diagonal.
+    pub damping: Vec<Vec<f32>>,
+    /// Stiffness matrix `K` between the masses and to fixed ground (N/m), rows; the road
+    /// springs of `[[substructure.channels]] road` are added to its diagonal.
+    pub stiffness: Vec<Vec<f32>>,
+    /// Cut-off (Hz) of the low-pass of the board's velocity estimates (measured attachment
+    /// position and road input, backward difference); 0: plain backward difference.
+    pub velocity_cutoff_hz: f32,
+    /// One per actuator channel, in channel order (1 to 4).
+    pub channels: Vec<SubstructureChannel>,
+}
+
+/// `[[substructure.channels]]`: one actuator channel of the substructure.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SubstructureChannel {
+    /// The numerical DOF the interface `B_i` joins to the channel's attachment point.
+    pub dof: String,
+    /// Interface stiffness `k_i` (N/m).
+    pub interface_stiffness_n_per_m: f32,
+    /// Interface damping `c_i` (N s/m).
+    pub interface_damping_n_s_per_m: f32,
+    /// Springs and dampers from numerical DOFs to the channel's road input `w_c` (the run's
+    /// road input of this channel).
+    #[serde(default)]
+    pub road: Vec<RoadCoupling>,
+}
+
+/// A spring and damper from a numerical DOF to a channel's road input.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoadCoupling {
+    /// The numerical DOF.
+    pub dof: String,
+    /// Stiffness (N/m).
+    #[serde(default)]
+    pub stiffness_n_per_m: f32,
+    /// Damping (N s/m).
+    #[serde(default)]
+    pub damping_n_s_per_m: f32,
 }
 
 /// `[controller]`.
@@ -132,6 +202,10 @@ pub struct ControllerSection {
 pub struct RigSection {
     /// RK4 step of the plants (s), at most the control period.
     pub internal_step_s: f64,
+    /// Parameters of every actuator (the nonlinear servo-hydraulic actuator with its force
+    /// loop, `[actuator.reference]` of a `mil analyze` set-up); default: the reference hub
+    /// actuator, `ServoHydraulicActuator::REFERENCE`.
+    pub actuator: Option<mil_analysis::ServoHydraulicActuator>,
     /// Switchable effects of every actuator (all off by default).
     pub actuator_effects: mil_rig::actuator::ActuatorEffects,
     /// The quarter car's suspension (tyre rig); default: the paper's linear `k_c`, `c_c`.
@@ -144,17 +218,25 @@ pub struct RigSection {
     pub front_suspension: Option<mil_rig::effects::Element>,
     /// The half car's rear suspension (aero rig); default: the paper's.
     pub rear_suspension: Option<mil_rig::effects::Element>,
+    /// The physical specimen of a substructure run (required there): DOFs, mass matrix,
+    /// static forces, force elements (with their effects), road inputs and one actuator
+    /// attachment per channel (see `mil_rig::specimen`). Its road inputs are named after
+    /// the run's road inputs they follow, `road_0` … (channel `c`'s road); it must be at
+    /// rest with zero actuator force (preloads balancing the static forces).
+    pub specimen: Option<mil_rig::specimen::Specimen>,
 }
 
 impl Default for RigSection {
     fn default() -> Self {
         Self {
             internal_step_s: mil_rig::DEFAULT_INTERNAL_STEP_S,
+            actuator: None,
             actuator_effects: Default::default(),
             suspension: None,
             tyre_effects: None,
             front_suspension: None,
             rear_suspension: None,
+            specimen: None,
         }
     }
 }
@@ -190,6 +272,11 @@ pub struct CompareSection {
     /// its MiL and emulated predictions are compared with the responses estimated from the
     /// run. None: only MiL against emulated.
     pub analysis: Option<String>,
+    /// The set-up's inputs the run's road input (channel 0's) drives; the prediction is the
+    /// sum of their responses. Default: `["road"]` (tyre), `["road_heave"]` (aero); required
+    /// for a substructure (e.g. `["z_n"]`, or `["z_n", "z_p"]` when the specimen stands on
+    /// the same road).
+    pub analysis_inputs: Option<Vec<String>>,
     /// Lower edge of the comparison band (Hz).
     pub f_min_hz: f64,
     /// Upper edge of the comparison band (Hz).
@@ -206,6 +293,7 @@ impl Default for CompareSection {
     fn default() -> Self {
         Self {
             analysis: None,
+            analysis_inputs: None,
             f_min_hz: 1.0,
             f_max_hz: 30.0,
             segment: 4096,
@@ -257,8 +345,24 @@ impl LimitsSection {
 pub enum Validated {
     /// Four tyre channels.
     Tyre(Box<PreparedParams<model_core::TyreModel<4>, 4>>),
-    /// Two aero channels, with the run's constant speed (m/s).
-    Aero(Box<PreparedParams<model_core::AeroModel, 2>>, f32),
+    /// Two aero channels, with the run's speed (m/s) over time.
+    Aero(Box<PreparedParams<model_core::AeroModel, 2>>, SpeedProfile),
+    /// A substructure on 1 to [`MAX_SUBSTRUCTURE_CHANNELS`] channels.
+    Substructure(PreparedSubstructure),
+}
+
+/// A substructure's parameter set, by its number of channels (model-core sizes the
+/// controller at compile time).
+#[derive(Clone, Debug)]
+pub enum PreparedSubstructure {
+    /// One channel.
+    One(Box<PreparedParams<SubstructureModel<1>, 1>>),
+    /// Two channels.
+    Two(Box<PreparedParams<SubstructureModel<2>, 2>>),
+    /// Three channels.
+    Three(Box<PreparedParams<SubstructureModel<3>, 3>>),
+    /// Four channels.
+    Four(Box<PreparedParams<SubstructureModel<4>, 4>>),
 }
 
 impl Config {
@@ -282,6 +386,36 @@ impl Config {
         match self.model.kind {
             ModelKind::Tyre => 4,
             ModelKind::Aero => 2,
+            ModelKind::Substructure => self.substructure.as_ref().map_or(0, |s| s.channels.len()),
+        }
+    }
+
+    /// The time of the run's last sample (s).
+    pub fn end_s(&self) -> f64 {
+        self.samples().saturating_sub(1) as f64 / self.run.sample_rate_hz
+    }
+
+    /// The aero run's speed: `[aero] speed_m_per_s` (constant) or `[speed]`, validated (a
+    /// recorded profile is read here).
+    ///
+    /// # Errors
+    /// Neither or both given, or an invalid speed.
+    pub fn speed_profile(&self) -> Result<SpeedProfile> {
+        let constant = self.aero.as_ref().and_then(|a| a.speed_m_per_s);
+        match (constant, &self.speed) {
+            (Some(v), None) => SpeedInput::Constant {
+                speed_m_per_s: f64::from(v),
+            }
+            .profile(&self.base, self.end_s())
+            .context("aero.speed_m_per_s"),
+            (None, Some(speed)) => speed.profile(&self.base, self.end_s()),
+            (Some(_), Some(_)) => bail!(
+                "the speed is given twice: use either aero.speed_m_per_s (constant) or a \
+                 [speed] table"
+            ),
+            (None, None) => bail!(
+                "the aero model needs a speed: aero.speed_m_per_s (constant) or a [speed] table"
+            ),
         }
     }
 
@@ -340,6 +474,9 @@ impl Config {
                     lift_off: u32::from(t.lift_off),
                     velocity_cutoff_hz: t.velocity_cutoff_hz,
                 };
+                if self.speed.is_some() {
+                    bail!("[speed] is for the aero model");
+                }
                 PreparedParams::new(&l.params(TyreModelParams { tyre: [tyre; 4] }, filter), dt)
                     .map(|p| Validated::Tyre(Box::new(p)))
                     .map_err(param_error)
@@ -357,16 +494,105 @@ impl Config {
                     rear_axle: a.rear_axle_m,
                     ..AeroParams::PAPER
                 };
-                if !(a.speed_m_per_s.is_finite()
-                    && (0.0..=model_core::aero::AERO_MAX_SPEED).contains(&a.speed_m_per_s))
-                {
-                    bail!("aero.speed_m_per_s must be in [0, 150] m/s");
-                }
+                let speed = self.speed_profile()?;
                 PreparedParams::new(&l.params(aero, filter), dt)
-                    .map(|p| Validated::Aero(Box::new(p), a.speed_m_per_s))
+                    .map(|p| Validated::Aero(Box::new(p), speed))
                     .map_err(param_error)
             }
+            ModelKind::Substructure => {
+                let s = self
+                    .substructure
+                    .as_ref()
+                    .context("model.kind = \"substructure\" needs a [substructure] table")?;
+                if self.speed.is_some() {
+                    bail!("[speed] is for the aero model");
+                }
+                let prepared = match s.channels.len() {
+                    1 => PreparedSubstructure::One(Box::new(
+                        PreparedParams::new(&l.params(s.params::<1>()?, filter), dt)
+                            .map_err(param_error)?,
+                    )),
+                    2 => PreparedSubstructure::Two(Box::new(
+                        PreparedParams::new(&l.params(s.params::<2>()?, filter), dt)
+                            .map_err(param_error)?,
+                    )),
+                    3 => PreparedSubstructure::Three(Box::new(
+                        PreparedParams::new(&l.params(s.params::<3>()?, filter), dt)
+                            .map_err(param_error)?,
+                    )),
+                    4 => PreparedSubstructure::Four(Box::new(
+                        PreparedParams::new(&l.params(s.params::<4>()?, filter), dt)
+                            .map_err(param_error)?,
+                    )),
+                    n => bail!(
+                        "substructure.channels: {n} given, 1 to {MAX_SUBSTRUCTURE_CHANNELS} \
+                         supported"
+                    ),
+                };
+                Ok(Validated::Substructure(prepared))
+            }
         }
+    }
+}
+
+impl SubstructureSection {
+    /// Index of the DOF named `name`.
+    fn dof(&self, name: &str, what: &str) -> Result<usize> {
+        self.dofs
+            .iter()
+            .position(|d| d == name)
+            .with_context(|| format!("{what}: no DOF {name:?} (DOFs: {:?})", self.dofs))
+    }
+
+    /// model-core's parameters for `CH` channels (`CH` must be the number of channels);
+    /// dimensions and names are checked here, values by model-core.
+    ///
+    /// # Errors
+    /// Sizes, unknown or repeated DOF names, a channel count other than `CH`.
+    pub fn params<const CH: usize>(&self) -> Result<SubstructureParams<CH>> {
+        let n = self.dofs.len();
+        if !(1..=MAX_DOF).contains(&n) {
+            bail!("substructure.dofs: {n} DOFs, 1 to {MAX_DOF} supported");
+        }
+        for (i, d) in self.dofs.iter().enumerate() {
+            if self.dofs[..i].contains(d) {
+                bail!("substructure.dofs: {d:?} named twice");
+            }
+        }
+        if self.channels.len() != CH {
+            bail!(
+                "substructure.channels: {} given for {CH} channel(s)",
+                self.channels.len()
+            );
+        }
+        let mut p = SubstructureParams::<CH>::zeroed(n as u32, Causality::Impedance);
+        for (name, from, to) in [
+            ("mass", &self.mass, &mut p.mass),
+            ("damping", &self.damping, &mut p.damping),
+            ("stiffness", &self.stiffness, &mut p.stiffness),
+        ] {
+            if from.len() != n || from.iter().any(|r| r.len() != n) {
+                bail!("substructure.{name} must be {n} x {n} (one row per DOF)");
+            }
+            for (row, values) in to.iter_mut().zip(from) {
+                row[..n].copy_from_slice(values);
+            }
+        }
+        p.velocity_cutoff_hz = self.velocity_cutoff_hz;
+        for (c, ch) in self.channels.iter().enumerate() {
+            let what = format!("substructure.channels[{c}]");
+            p.interface[c] = InterfaceParams {
+                dof: self.dof(&ch.dof, &what)? as u32,
+                stiffness: ch.interface_stiffness_n_per_m,
+                damping: ch.interface_damping_n_s_per_m,
+            };
+            for r in &ch.road {
+                let j = self.dof(&r.dof, &format!("{what}.road"))?;
+                p.ground_stiffness[j][c] += r.stiffness_n_per_m;
+                p.ground_damping[j][c] += r.damping_n_s_per_m;
+            }
+        }
+        Ok(p)
     }
 }
 

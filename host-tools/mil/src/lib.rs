@@ -3,7 +3,7 @@
 //! controller step with its CSV, SVG and summary outputs.
 //!
 //! `mil sim` ([`sim`]) runs the controller in closed loop with the simulated rig
-//! (`mil-rig`) and the emulated system alongside; `mil run` ([`run`]) drives it open-loop
+//! (`mil-rig`) and the emulated system alongside; `mil run` ([`mod@run`]) drives it open-loop
 //! on a rigid rig (measured positions zero), so its demand is the force the numerical model
 //! asks of the actuators for the given road and speed.
 

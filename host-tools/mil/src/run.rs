@@ -1,6 +1,6 @@
 //! One open-loop run of the real-time controller step over a road input.
 
-use crate::config::{Config, Validated};
+use crate::config::{Config, PreparedSubstructure, Validated};
 use anyhow::{Context, Result};
 use model_core::{Controller, Mode, Model, ModelInput, PreparedParams, Status};
 use serde::Serialize;
@@ -54,6 +54,8 @@ pub struct RunOutput {
     pub time: Vec<f64>,
     /// Road input per sample and channel (m).
     pub road: Vec<Vec<f64>>,
+    /// Vehicle speed per sample (m/s), for the aero model.
+    pub speed: Option<Vec<f64>>,
     /// Demand per sample and channel (N).
     pub demand: Vec<Vec<f64>>,
     /// Status per sample.
@@ -71,26 +73,44 @@ pub fn run(config: &Config, mut progress: impl FnMut(f64)) -> Result<RunOutput> 
         .input
         .generate(n, fs, config.channels(), &config.base)?;
     let started = std::time::Instant::now();
+    let mut speed = None;
+    // Measured positions and forces of a rigid rig: zero (the aero model takes the road as
+    // its body position).
+    fn road_input<const CH: usize>(_: usize, z: &[f64]) -> ModelInput<CH> {
+        ModelInput {
+            road: to_array(z),
+            ..ModelInput::default()
+        }
+    }
     let (demand, status) = match validated {
-        Validated::Tyre(p) => drive(
-            *p,
-            &road,
-            |z| ModelInput {
-                road: to_array(z),
-                ..ModelInput::default()
-            },
-            &mut progress,
-        ),
-        Validated::Aero(p, speed) => drive(
-            *p,
-            &road,
-            |z| ModelInput {
-                position: to_array(z),
-                speed,
-                ..ModelInput::default()
-            },
-            &mut progress,
-        ),
+        Validated::Tyre(p) => drive(*p, &road, road_input, &mut progress),
+        Validated::Aero(p, profile) => {
+            let v = profile.samples(n, fs);
+            let out = drive(
+                *p,
+                &road,
+                |k, z| ModelInput {
+                    position: to_array(z),
+                    speed: v[k] as f32,
+                    ..ModelInput::default()
+                },
+                &mut progress,
+            );
+            speed = Some(v);
+            out
+        }
+        Validated::Substructure(PreparedSubstructure::One(p)) => {
+            drive(*p, &road, road_input, &mut progress)
+        }
+        Validated::Substructure(PreparedSubstructure::Two(p)) => {
+            drive(*p, &road, road_input, &mut progress)
+        }
+        Validated::Substructure(PreparedSubstructure::Three(p)) => {
+            drive(*p, &road, road_input, &mut progress)
+        }
+        Validated::Substructure(PreparedSubstructure::Four(p)) => {
+            drive(*p, &road, road_input, &mut progress)
+        }
     };
     let elapsed = started.elapsed().as_secs_f64().max(1e-9);
     let time: Vec<f64> = (0..n).map(|k| k as f64 / fs).collect();
@@ -132,6 +152,7 @@ pub fn run(config: &Config, mut progress: impl FnMut(f64)) -> Result<RunOutput> 
     Ok(RunOutput {
         time,
         road,
+        speed,
         demand,
         status,
         summary,
@@ -151,7 +172,7 @@ pub(crate) fn to_array<const CH: usize>(v: &[f64]) -> [f32; CH] {
 fn drive<M: Model<CH>, const CH: usize>(
     prepared: PreparedParams<M, CH>,
     road: &[Vec<f64>],
-    input: impl Fn(&[f64]) -> ModelInput<CH>,
+    input: impl Fn(usize, &[f64]) -> ModelInput<CH>,
     progress: &mut impl FnMut(f64),
 ) -> (Vec<Vec<f64>>, Vec<Status>) {
     let mut controller = Controller::new(prepared);
@@ -160,7 +181,7 @@ fn drive<M: Model<CH>, const CH: usize>(
     let mut demand = Vec::with_capacity(n);
     let mut status = Vec::with_capacity(n);
     for (k, z) in road.iter().enumerate() {
-        let d = controller.step(&input(z));
+        let d = controller.step(&input(k, z));
         demand.push(d.iter().map(|v| f64::from(*v)).collect());
         status.push(controller.status());
         if k % 4096 == 0 {
@@ -172,8 +193,9 @@ fn drive<M: Model<CH>, const CH: usize>(
 }
 
 impl RunOutput {
-    /// Writes the time histories as CSV: `time` (s), `road_<ch>` (m), `demand_<ch>` (N),
-    /// `mode`, `amplitude_limited`, `rate_limited` (bit masks).
+    /// Writes the time histories as CSV: `time` (s), `road_<ch>` (m), `speed` (m/s, aero
+    /// model only), `demand_<ch>` (N), `mode`, `amplitude_limited`, `rate_limited` (bit
+    /// masks).
     pub fn write_csv(&self, path: &Path) -> Result<()> {
         let file = std::fs::File::create(path)
             .with_context(|| format!("cannot create {}", path.display()))?;
@@ -181,19 +203,26 @@ impl RunOutput {
         let ch = self.summary.channels;
         let mut header = vec!["time".to_string()];
         header.extend((0..ch).map(|c| format!("road_{c}")));
+        if self.speed.is_some() {
+            header.push("speed".into());
+        }
         header.extend((0..ch).map(|c| format!("demand_{c}")));
         header.extend(["mode", "amplitude_limited", "rate_limited"].map(String::from));
         writeln!(w, "{}", header.join(","))?;
-        for (((t, z), d), s) in self
+        for (k, (((t, z), d), s)) in self
             .time
             .iter()
             .zip(&self.road)
             .zip(&self.demand)
             .zip(&self.status)
+            .enumerate()
         {
             write!(w, "{t:.6}")?;
             for v in z {
                 write!(w, ",{v:.9e}")?;
+            }
+            if let Some(v) = &self.speed {
+                write!(w, ",{:.6}", v[k])?;
             }
             for v in d {
                 write!(w, ",{v:.6e}")?;

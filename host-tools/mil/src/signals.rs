@@ -1,5 +1,6 @@
-//! Road (ground) input signals: sine sweep, pink noise, bump, and recorded CSV profiles.
-//! All in SI units (m, s, Hz).
+//! Road (ground) input signals: sine sweep, pink noise, bump, and recorded CSV profiles;
+//! and the vehicle speed over a run (constant, ramp, step, recorded CSV). All in SI units
+//! (m, m/s, s, Hz).
 
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
@@ -282,6 +283,230 @@ pub fn read_profile(path: &Path, n: usize, dt: f64, channels: usize) -> Result<V
     Ok(out)
 }
 
+/// Largest vehicle speed (m/s) a run may ask for: model-core's aero input limit
+/// ([`model_core::aero::AERO_MAX_SPEED`]).
+pub const MAX_SPEED_M_PER_S: f64 = model_core::aero::AERO_MAX_SPEED as f64;
+
+/// A vehicle speed over the run (the aero model's `v`), as written in the `[speed]` table of
+/// a run configuration; `[aero] speed_m_per_s` is the shorthand for a constant speed. Every
+/// speed must be finite and in `[0, MAX_SPEED_M_PER_S]` m/s. The board reads the speed at
+/// each control sample; the emulated aero model follows the same samples, ramped linearly
+/// between them.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum SpeedInput {
+    /// A constant speed.
+    Constant {
+        /// Speed (m/s).
+        speed_m_per_s: f64,
+    },
+    /// A linear ramp: `from_m_per_s` until `at_s`, then linearly to `to_m_per_s` over
+    /// `duration_s`, then held.
+    Ramp {
+        /// Speed before the ramp (m/s).
+        from_m_per_s: f64,
+        /// Speed after the ramp (m/s).
+        to_m_per_s: f64,
+        /// Start of the ramp (s).
+        at_s: f64,
+        /// Length of the ramp (s), > 0.
+        duration_s: f64,
+    },
+    /// A step: `from_m_per_s` before `at_s`, `to_m_per_s` from `at_s` on (the first control
+    /// sample at or after `at_s` has the new speed).
+    Step {
+        /// Speed before the step (m/s).
+        from_m_per_s: f64,
+        /// Speed from the step on (m/s).
+        to_m_per_s: f64,
+        /// Time of the step (s).
+        at_s: f64,
+    },
+    /// A recorded speed: CSV with a header, `time` (s) first, strictly increasing (any
+    /// spacing, e.g. a 10 Hz log), and a speed column (m/s); linearly interpolated between
+    /// rows. The rows must cover the run (first time at most 0 s, last at least the last
+    /// sample's time).
+    Csv {
+        /// Path of the CSV file, relative to the configuration file.
+        path: String,
+        /// Header of the speed column; none: the file must have exactly one column after
+        /// `time`.
+        #[serde(default)]
+        column: Option<String>,
+    },
+}
+
+/// A validated speed over a run (see [`SpeedInput`]), evaluated at any time.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SpeedProfile {
+    /// Constant speed (m/s).
+    Constant(f64),
+    /// `(from, to, at, duration)`: m/s, m/s, s, s (a step has duration 0).
+    Ramp(f64, f64, f64, f64),
+    /// Breakpoints: times (s, strictly increasing) and speeds (m/s), interpolated linearly.
+    Table(Vec<f64>, Vec<f64>),
+}
+
+impl SpeedInput {
+    /// Checks the parameters and reads a recorded profile (relative to `base`); `end_s` is
+    /// the time of the run's last sample (s), which a recorded profile must reach.
+    ///
+    /// # Errors
+    /// A speed that is not finite or outside `[0, MAX_SPEED_M_PER_S]` m/s, a bad ramp or step
+    /// time, or a recorded profile that cannot be read, is not numeric, not strictly
+    /// increasing in time, or does not cover the run; the message names the row.
+    pub fn profile(&self, base: &Path, end_s: f64) -> Result<SpeedProfile> {
+        let speed = |name: &str, v: f64| -> Result<f64> {
+            if !(v.is_finite() && (0.0..=MAX_SPEED_M_PER_S).contains(&v)) {
+                bail!("speed.{name} must be in [0, {MAX_SPEED_M_PER_S}] m/s, got {v}");
+            }
+            Ok(v)
+        };
+        let time = |name: &str, v: f64| -> Result<f64> {
+            if !(v.is_finite() && v >= 0.0) {
+                bail!("speed.{name} must be >= 0 s, got {v}");
+            }
+            Ok(v)
+        };
+        Ok(match self {
+            SpeedInput::Constant { speed_m_per_s } => {
+                SpeedProfile::Constant(speed("speed_m_per_s", *speed_m_per_s)?)
+            }
+            SpeedInput::Ramp {
+                from_m_per_s,
+                to_m_per_s,
+                at_s,
+                duration_s,
+            } => {
+                if !(duration_s.is_finite() && *duration_s > 0.0) {
+                    bail!("speed.duration_s must be > 0 s (a step is kind = \"step\"), got {duration_s}");
+                }
+                SpeedProfile::Ramp(
+                    speed("from_m_per_s", *from_m_per_s)?,
+                    speed("to_m_per_s", *to_m_per_s)?,
+                    time("at_s", *at_s)?,
+                    *duration_s,
+                )
+            }
+            SpeedInput::Step {
+                from_m_per_s,
+                to_m_per_s,
+                at_s,
+            } => SpeedProfile::Ramp(
+                speed("from_m_per_s", *from_m_per_s)?,
+                speed("to_m_per_s", *to_m_per_s)?,
+                time("at_s", *at_s)?,
+                0.0,
+            ),
+            SpeedInput::Csv { path, column } => {
+                if path.is_empty() {
+                    bail!("speed.path is empty");
+                }
+                let (t, v) = read_speed_profile(&base.join(path), column.as_deref(), end_s)?;
+                SpeedProfile::Table(t, v)
+            }
+        })
+    }
+}
+
+impl SpeedProfile {
+    /// Speed (m/s) at time `t_s` (s).
+    pub fn at(&self, t_s: f64) -> f64 {
+        match self {
+            SpeedProfile::Constant(v) => *v,
+            SpeedProfile::Ramp(from, to, at, duration) => {
+                if t_s < *at {
+                    *from
+                } else if t_s >= at + duration {
+                    *to
+                } else {
+                    from + (to - from) * (t_s - at) / duration
+                }
+            }
+            SpeedProfile::Table(time, speed) => {
+                let i = time.partition_point(|x| *x <= t_s);
+                match (i.checked_sub(1), time.get(i)) {
+                    (None, _) => speed.first().copied().unwrap_or(0.0),
+                    (Some(j), None) => speed[j],
+                    (Some(j), Some(t1)) => {
+                        let f = (t_s - time[j]) / (t1 - time[j]);
+                        speed[j] + f * (speed[i] - speed[j])
+                    }
+                }
+            }
+        }
+    }
+
+    /// The speed (m/s) at each of `n` control samples at `sample_rate_hz` (Hz).
+    pub fn samples(&self, n: usize, sample_rate_hz: f64) -> Vec<f64> {
+        (0..n).map(|k| self.at(k as f64 / sample_rate_hz)).collect()
+    }
+}
+
+/// Reads a recorded speed profile (see [`SpeedInput::Csv`]): times (s) and speeds (m/s).
+///
+/// # Errors
+/// See [`SpeedInput::profile`].
+pub fn read_speed_profile(
+    path: &Path,
+    column: Option<&str>,
+    end_s: f64,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let mut reader = csv::Reader::from_path(path)
+        .with_context(|| format!("cannot open speed profile {}", path.display()))?;
+    let header = reader.headers()?.clone();
+    let name = path.display();
+    if header.get(0).map(str::trim) != Some("time") {
+        bail!("{name}: the first column must be `time` (s)");
+    }
+    let index = match column {
+        Some(c) => header
+            .iter()
+            .skip(1)
+            .position(|h| h.trim() == c)
+            .map(|i| i + 1)
+            .with_context(|| format!("{name}: no column {c:?} (speed.column)"))?,
+        None if header.len() == 2 => 1,
+        None => bail!(
+            "{name}: {} columns after `time`: name the speed column with speed.column",
+            header.len().saturating_sub(1)
+        ),
+    };
+    let (mut time, mut speed) = (Vec::new(), Vec::<f64>::new());
+    for (row, record) in reader.records().enumerate() {
+        let line = row + 2;
+        let record = record.with_context(|| format!("{name}: row {line}"))?;
+        let value = |i: usize, what: &str| -> Result<f64> {
+            let text = record.get(i).unwrap_or("").trim();
+            text.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .with_context(|| {
+                    format!("{name}: row {line}: {what} {text:?} is not a finite number")
+                })
+        };
+        let (t, v) = (value(0, "time")?, value(index, "speed")?);
+        if let Some(last) = time.last() {
+            if t <= *last {
+                bail!("{name}: row {line}: time {t} s does not increase (previous row {last} s)");
+            }
+        }
+        if !(0.0..=MAX_SPEED_M_PER_S).contains(&v) {
+            bail!("{name}: row {line}: speed {v} m/s is outside [0, {MAX_SPEED_M_PER_S}] m/s");
+        }
+        time.push(t);
+        speed.push(v);
+    }
+    match (time.first(), time.last()) {
+        (Some(first), Some(last)) if *first <= 1e-9 && *last >= end_s - 1e-9 => {}
+        (Some(first), Some(last)) => {
+            bail!("{name}: covers {first} to {last} s, the run needs 0 to {end_s} s")
+        }
+        _ => bail!("{name}: no rows"),
+    }
+    Ok((time, speed))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -303,5 +528,46 @@ mod tests {
         assert_ne!(a, c);
         let rms = (a.iter().map(|v| v * v).sum::<f64>() / a.len() as f64).sqrt();
         assert!((rms - 0.001).abs() < 1e-9);
+    }
+
+    #[test]
+    fn speed_profiles_ramp_step_and_interpolate() {
+        let base = Path::new(".");
+        let ramp = SpeedInput::Ramp {
+            from_m_per_s: 20.0,
+            to_m_per_s: 40.0,
+            at_s: 1.0,
+            duration_s: 2.0,
+        }
+        .profile(base, 5.0)
+        .unwrap();
+        let at = |p: &SpeedProfile, t: f64| p.at(t);
+        assert_eq!(
+            [0.0, 1.0, 1.5, 3.0, 9.0].map(|t| at(&ramp, t)),
+            [20.0, 20.0, 25.0, 40.0, 40.0]
+        );
+        let step = SpeedInput::Step {
+            from_m_per_s: 30.0,
+            to_m_per_s: 10.0,
+            at_s: 0.5,
+        }
+        .profile(base, 5.0)
+        .unwrap();
+        assert_eq!(step.samples(3, 4.0), [30.0, 30.0, 10.0]);
+        let table = SpeedProfile::Table(vec![0.0, 1.0, 3.0], vec![10.0, 20.0, 0.0]);
+        assert_eq!(
+            [0.0, 0.5, 1.0, 2.0, 3.0, 4.0].map(|t| at(&table, t)),
+            [10.0, 15.0, 20.0, 10.0, 0.0, 0.0]
+        );
+        let e = SpeedInput::Constant {
+            speed_m_per_s: f64::NAN,
+        }
+        .profile(base, 1.0)
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("speed.speed_m_per_s must be in [0, 150] m/s"),
+            "{e}"
+        );
     }
 }

@@ -1,18 +1,19 @@
 //! `mil sim`: the board's controller step in closed loop with the simulated rig, the emulated
 //! system (the real vehicle) alongside on the same road, and how close the two are.
 //!
-//! The run configuration is `mil run`'s (`[run]`, `[model]`, `[tyre]`/`[aero]`, `[limits]`,
-//! `[input]`, `[controller]`) plus the rig (`[rig]`, `[sensors]`, `[links]`) and the
-//! comparison (`[compare]`). Outputs: the time histories (CSV, `time` first, SI units),
+//! The run configuration is `mil run`'s (`[run]`, `[model]`, `[tyre]`/`[aero]` and
+//! `[speed]`/`[substructure]`, `[limits]`, `[input]`, `[controller]`) plus the rig (`[rig]`,
+//! with the physical specimen of a substructure in `[rig.specimen]`; `[sensors]`,
+//! `[links]`) and the comparison (`[compare]`). Outputs: the time histories (CSV, `time` first, SI units),
 //! SVG plots, and a summary: per channel the error figures of MiL against emulated for the
 //! interface force and position (J1 delay at the cross-correlation peak, J2 normalised RMS
 //! error, J3 normalised peak error, see [`mil_rig::metrics`]), and the response estimated
 //! from the run (H1, Hann-windowed Welch) against the emulated one and, with
 //! `[compare] analysis`, against `mil analyze`'s prediction.
 
-use crate::config::{Config, ModelKind, Validated};
+use crate::config::{Config, ModelKind, PreparedSubstructure, Validated};
 use crate::run::to_array;
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use mil_analysis::analyze::Signal;
 use mil_analysis::examples::{AeroExample, TyreExample};
 use mil_analysis::response::CommandFilter;
@@ -26,7 +27,7 @@ use mil_rig::harness::{self, Histories, Instrumentation, LinkStatistics, RigPart
 use mil_rig::metrics::{compare, lowpass_zero_phase, Comparison};
 use mil_rig::rigs::IdealAero;
 use mil_rig::specimen::Specimen;
-use model_core::{Controller, Mode, ModelInput, Status};
+use model_core::{Controller, Mode, ModelInput, PreparedParams, Status, SubstructureModel};
 use num_complex::Complex64;
 use serde::Serialize;
 use std::io::Write;
@@ -82,6 +83,9 @@ pub struct ResponseSummary {
     pub emulated_vs_analysis: Option<Deviation>,
     /// The analysis set-up compared with.
     pub analysis: Option<String>,
+    /// Why the comparison with the analysis set-up was left out, if it was (e.g. an aero
+    /// run away from the set-up's reference speed).
+    pub analysis_skipped: Option<String>,
 }
 
 /// Summary of a simulation (printed as a table, or as JSON with `--json`).
@@ -99,6 +103,8 @@ pub struct SimSummary {
     pub internal_step_s: f64,
     /// Sections of the command filter (0: none).
     pub filter_sections: usize,
+    /// Lowest and highest vehicle speed of the run (m/s), for the aero model.
+    pub speed_m_per_s: Option<[f64; 2]>,
     /// Comparison band (Hz): the in-band figures and the response comparison.
     pub band_hz: [f64; 2],
     /// Start of the comparison (s): the figures leave out the run's start.
@@ -136,7 +142,8 @@ pub struct ResponseCurves {
 
 /// Result of a simulation.
 pub struct SimOutput {
-    /// Names of the road inputs.
+    /// Names of the road inputs, as in the CSV: the road (m) and, for the aero model, the
+    /// speed (m/s) last.
     pub road_names: Vec<String>,
     /// Time histories.
     pub histories: Histories,
@@ -167,6 +174,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             fs / 2.0
         );
     }
+    let prediction = prediction(config)?;
     let n = config.samples();
     let channels = config.channels();
     let rows = config.input.generate(n, fs, channels, &config.base)?;
@@ -178,9 +186,13 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
         demand_link: config.links.demand.clone(),
     };
     let actuator = ForceActuator::new(
-        ServoHydraulicActuator::REFERENCE,
+        config
+            .rig
+            .actuator
+            .unwrap_or(ServoHydraulicActuator::REFERENCE),
         config.rig.actuator_effects,
-    )?;
+    )
+    .map_err(|e| anyhow!("rig.actuator: {e}"))?;
     let started = std::time::Instant::now();
     let (road_names, histories, links, filter_sections) = match validated {
         Validated::Tyre(prepared) => {
@@ -252,7 +264,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             let names = (0..channels).map(|c| format!("road_{c}")).collect();
             (names, h, links, sections)
         }
-        Validated::Aero(prepared, speed) => {
+        Validated::Aero(prepared, profile) => {
             let car = AeroExample::default();
             let params = prepared.params().model;
             let front = config
@@ -263,18 +275,24 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
                 .rig
                 .rear_suspension
                 .unwrap_or_else(|| Specimen::half_car_suspensions(&car).1);
-            let speed = f64::from(speed);
-            let mut parts = vec![mil_rig::rigs::half_car_part(
+            // The speed is the run's third input column (m/s): the board reads it per
+            // sample, the emulated aero model follows it ramped between samples. The rig
+            // starts at rest at the first sample's speed.
+            let speed = profile.samples(n, fs);
+            let start = speed.first().copied().unwrap_or_else(|| profile.at(0.0));
+            let mut parts = vec![mil_rig::rigs::half_car_part_varying_speed(
                 &car,
                 (front, rear),
                 actuator,
-                IdealAero::new(params, speed),
+                IdealAero::new(params, start),
                 0,
                 [0, 1],
+                2,
                 step,
             )?];
-            let road = columns(&rows, channels);
-            let initial = mil_rig::rigs::aero_static_demand(&params, speed);
+            let mut road = columns(&rows, channels);
+            road.push(speed);
+            let initial = mil_rig::rigs::aero_static_demand(&params, start);
             let sections = prepared.params().filter[0].active().len();
             let mut controller = Controller::new(*prepared);
             let (h, links) = harness::run(
@@ -284,21 +302,41 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
                 fs,
                 &road,
                 &initial,
-                mil_rig::rigs::aero_input(speed),
+                mil_rig::rigs::aero_input_varying_speed(2),
                 progress,
             )?;
             (
-                vec!["road_front".into(), "road_rear".into()],
+                vec!["road_front".into(), "road_rear".into(), "speed".into()],
                 h,
                 links,
                 sections,
             )
+        }
+        Validated::Substructure(prepared) => {
+            let road = columns(&rows, channels);
+            let (h, links, sections) = match prepared {
+                PreparedSubstructure::One(p) => {
+                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
+                }
+                PreparedSubstructure::Two(p) => {
+                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
+                }
+                PreparedSubstructure::Three(p) => {
+                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
+                }
+                PreparedSubstructure::Four(p) => {
+                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
+                }
+            };
+            let names = (0..channels).map(|c| format!("road_{c}")).collect();
+            (names, h, links, sections)
         }
     };
     let elapsed = started.elapsed().as_secs_f64().max(1e-9);
     let channel_names: Vec<String> = match config.model.kind {
         ModelKind::Tyre => (0..channels).map(|c| format!("wheel {c} hub")).collect(),
         ModelKind::Aero => vec!["front axle".into(), "rear axle".into()],
+        ModelKind::Substructure => (0..channels).map(|c| format!("channel {c}")).collect(),
     };
     let skip = settle_samples(config, histories.len());
     let band = |x: &[f64]| lowpass_zero_phase(x, config.compare.f_max_hz, fs);
@@ -327,7 +365,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             }
         })
         .collect();
-    let (response, curves) = match response(config, &histories)? {
+    let (response, curves) = match response(config, &histories, prediction.as_ref())? {
         Some((s, c)) => (Some(s), Some(c)),
         None => (None, None),
     };
@@ -339,6 +377,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
         samples: n,
         internal_step_s: step,
         filter_sections,
+        speed_m_per_s: speed_range(config, &histories),
         band_hz: [config.compare.f_min_hz, config.compare.f_max_hz],
         settle_s: skip as f64 / fs,
         channel,
@@ -359,6 +398,76 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
     })
 }
 
+/// The run's physical specimen on `CH` force-controlled actuators with the board's
+/// substructure model: builds the rig part from `[rig.specimen]` and runs it. Returns the
+/// histories, the link statistics and the command filter's sections.
+fn substructure<const CH: usize>(
+    prepared: PreparedParams<SubstructureModel<CH>, CH>,
+    config: &Config,
+    actuator: ForceActuator,
+    road: &[Vec<f64>],
+    instrumentation: &Instrumentation,
+    progress: impl FnMut(f64),
+) -> Result<(Histories, LinkStatistics, usize)> {
+    let specimen = config.rig.specimen.clone().context(
+        "model.kind = \"substructure\" needs the physical specimen on the rig: [rig.specimen]",
+    )?;
+    let specimen_inputs = specimen
+        .inputs
+        .iter()
+        .map(|name| {
+            name.strip_prefix("road_")
+                .and_then(|c| c.parse::<usize>().ok())
+                .filter(|c| *c < CH)
+                .with_context(|| {
+                    format!(
+                        "rig.specimen input {name:?}: name the run's road input it follows, \
+                         road_0 to road_{}",
+                        CH - 1
+                    )
+                })
+        })
+        .collect::<Result<Vec<usize>>>()?;
+    let model_roads: [usize; CH] = std::array::from_fn(|c| c);
+    let params = prepared.params().model;
+    let mut parts = vec![mil_rig::rigs::substructure_part(
+        specimen,
+        vec![actuator; CH],
+        &params,
+        0,
+        &specimen_inputs,
+        model_roads,
+        config.rig.internal_step_s,
+    )
+    .map_err(|e| anyhow!("rig.specimen: {}", e.0))?];
+    let sections = prepared.params().filter[0].active().len();
+    let mut controller = Controller::new(prepared);
+    let (h, links) = harness::run(
+        &mut controller,
+        &mut parts,
+        instrumentation,
+        config.run.sample_rate_hz,
+        road,
+        &[0.0; CH],
+        mil_rig::rigs::substructure_input(model_roads),
+        progress,
+    )?;
+    Ok((h, links, sections))
+}
+
+/// The aero run's lowest and highest speed (m/s): the histories' `speed` column.
+fn speed_range(config: &Config, h: &Histories) -> Option<[f64; 2]> {
+    if config.model.kind != ModelKind::Aero {
+        return None;
+    }
+    h.road.get(2).map(|v| {
+        v.iter()
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], x| {
+                [lo.min(*x), hi.max(*x)]
+            })
+    })
+}
+
 /// Samples left out at the start of the comparison (`[compare] settle_s`), at most all.
 fn settle_samples(config: &Config, samples: usize) -> usize {
     ((config.compare.settle_s * config.run.sample_rate_hz).round() as usize).min(samples)
@@ -375,10 +484,101 @@ fn columns(rows: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// `mil analyze`'s prediction of the run's response (`[compare] analysis`): the set-up
+/// with the run's command filter, the output signal and the inputs the run's road drives.
+struct Prediction {
+    /// The set-up file.
+    path: PathBuf,
+    /// The set-up, its command filter replaced by the run's.
+    setup: Setup,
+    /// The predicted output.
+    output: Signal,
+    /// The set-up's inputs the run's road drives (their responses are summed).
+    inputs: Vec<usize>,
+}
+
+/// Reads and checks `[compare] analysis` and `analysis_inputs` (before the run, so that a
+/// bad set-up is refused at once): see [`response`] for the signals per model.
+fn prediction(config: &Config) -> Result<Option<Prediction>> {
+    let cmp = &config.compare;
+    let Some(file) = &cmp.analysis else {
+        if cmp.analysis_inputs.is_some() {
+            bail!("compare.analysis_inputs needs compare.analysis (the set-up they belong to)");
+        }
+        return Ok(None);
+    };
+    let fs = config.run.sample_rate_hz;
+    let path: PathBuf = config.base.join(file);
+    let mut setup =
+        Setup::read(&path).with_context(|| format!("compare.analysis {}", path.display()))?;
+    // The prediction is for the controller that runs: the run's command filter replaces
+    // the set-up's.
+    let cascade = config.command_filter()?;
+    setup.system.filter = (cascade.sections > 0).then_some(CommandFilter::Discrete {
+        cascade,
+        sample_period_s: 1.0 / fs,
+    });
+    if (setup.sample_rate_hz - fs).abs() > 1e-9 * fs {
+        bail!(
+            "compare.analysis {} is for {} Hz, the run is at {fs} Hz",
+            path.display(),
+            setup.sample_rate_hz
+        );
+    }
+    let (signal, default_input) = match config.model.kind {
+        ModelKind::Tyre => ("interface_force", Some("road")),
+        ModelKind::Aero => ("physical:z_b", Some("road_heave")),
+        ModelKind::Substructure => ("interface_force", None),
+    };
+    let output = Signal::parse(signal, &setup.system)
+        .with_context(|| format!("compare.analysis {}", path.display()))?;
+    let names: Vec<String> = match (&cmp.analysis_inputs, default_input) {
+        (Some(names), _) if !names.is_empty() => names.clone(),
+        (Some(_), _) => bail!("compare.analysis_inputs is empty"),
+        (None, Some(name)) => vec![name.to_string()],
+        (None, None) => bail!(
+            "compare.analysis_inputs: name the inputs of {} that the run's road drives \
+             (e.g. [\"z_n\"])",
+            path.display()
+        ),
+    };
+    let available: Vec<&str> = setup
+        .system
+        .inputs
+        .iter()
+        .map(|i| i.name.as_str())
+        .collect();
+    let inputs = names
+        .iter()
+        .map(|name| {
+            available.iter().position(|i| i == name).with_context(|| {
+                format!(
+                    "compare.analysis_inputs: {} has no input {name:?} (inputs: {available:?})",
+                    path.display()
+                )
+            })
+        })
+        .collect::<Result<Vec<usize>>>()?;
+    Ok(Some(Prediction {
+        path,
+        setup,
+        output,
+        inputs,
+    }))
+}
+
 /// The response the run estimates, per model: tyre, channel 0's interface force per road
 /// under it (analysis: `interface_force` per `road`); aero, the body's heave per road heave
-/// (analysis: `physical:z_b` per `road_heave`), when both posts carry the same road.
-fn response(config: &Config, h: &Histories) -> Result<Option<(ResponseSummary, ResponseCurves)>> {
+/// (analysis: `physical:z_b` per `road_heave`), when both posts carry the same road;
+/// substructure, channel 0's interface force per channel 0's road (analysis:
+/// `interface_force` per the sum of `[compare] analysis_inputs`). The analysis comparison of
+/// an aero run is left out, with the reason, unless the speed is the reference speed
+/// throughout (the set-up's `K_i` holds there only).
+fn response(
+    config: &Config,
+    h: &Histories,
+    prediction: Option<&Prediction>,
+) -> Result<Option<(ResponseSummary, ResponseCurves)>> {
     let fs = config.run.sample_rate_hz;
     let cmp = &config.compare;
     let skip = settle_samples(config, h.len());
@@ -400,18 +600,17 @@ fn response(config: &Config, h: &Histories) -> Result<Option<(ResponseSummary, R
             _ => Vec::new(),
         }
     };
-    let (name, unit, input, mil_out, emu_out, signal, analysis_input) = match config.model.kind {
-        ModelKind::Tyre => (
+    let (name, unit, input, mil_out, emu_out) = match config.model.kind {
+        ModelKind::Tyre | ModelKind::Substructure => (
             "interface force / road, channel 0",
             "N/m",
             h.road[0].clone(),
             h.mil_force[0].clone(),
             h.emulated_force[0].clone(),
-            "interface_force",
-            "road",
         ),
         ModelKind::Aero => {
-            if h.road.len() != 2 || h.road[0] != h.road[1] {
+            // Columns: front post, rear post, speed.
+            if h.road.len() < 2 || h.road[0] != h.road[1] {
                 // A recorded profile with different posts: no single heave input.
                 return Ok(None);
             }
@@ -421,12 +620,14 @@ fn response(config: &Config, h: &Histories) -> Result<Option<(ResponseSummary, R
                 h.road[0].clone(),
                 heave(&h.mil_position),
                 heave(&h.emulated_position),
-                "physical:z_b",
-                "road_heave",
             )
         }
     };
     let input = &input[skip..];
+    if input.iter().all(|v| Some(v) == input.first()) {
+        // A level road (e.g. a speed or load case): nothing to estimate a response from.
+        return Ok(None);
+    }
     let (mil_out, emu_out) = (&mil_out[skip..], &emu_out[skip..]);
     let options = WelchOptions {
         segment_length: cmp.segment,
@@ -474,61 +675,52 @@ fn response(config: &Config, h: &Histories) -> Result<Option<(ResponseSummary, R
         mil_vs_analysis: None,
         emulated_vs_analysis: None,
         analysis: None,
+        analysis_skipped: None,
     };
-    if let Some(file) = &cmp.analysis {
-        let path: PathBuf = config.base.join(file);
-        let mut setup =
-            Setup::read(&path).with_context(|| format!("compare.analysis {}", path.display()))?;
-        // The prediction is for the controller that ran: the run's command filter replaces
-        // the set-up's.
-        let cascade = config.command_filter()?;
-        setup.system.filter = (cascade.sections > 0).then_some(CommandFilter::Discrete {
-            cascade,
-            sample_period_s: 1.0 / fs,
-        });
-        if (setup.sample_rate_hz - fs).abs() > 1e-9 * fs {
-            bail!(
-                "compare.analysis {} is for {} Hz, the run is at {fs} Hz",
-                path.display(),
-                setup.sample_rate_hz
-            );
+    if let (Some(_), Some(reference), Some(v)) = (
+        prediction,
+        config.aero.as_ref().map(|a| a.reference_speed_m_per_s),
+        speed_range(config, h),
+    ) {
+        let reference = f64::from(reference);
+        let what = if v[0] == v[1] {
+            format!("the run is at {} m/s", v[0])
+        } else {
+            format!("the run's speed varies from {} to {} m/s", v[0], v[1])
+        };
+        if v != [reference; 2] {
+            summary.analysis_skipped = Some(format!(
+                "the analysis set-up holds at the reference speed ({reference} m/s) only, {what}"
+            ));
+            return Ok(Some((summary, curves)));
         }
-        if let (ModelKind::Aero, Some(aero)) = (config.model.kind, &config.aero) {
-            if aero.speed_m_per_s != aero.reference_speed_m_per_s {
-                bail!(
-                    "compare.analysis: the analysis set-up holds at the reference speed only \
-                     ({} m/s), the run is at {} m/s",
-                    aero.reference_speed_m_per_s,
-                    aero.speed_m_per_s
-                );
-            }
-        }
-        let output = Signal::parse(signal, &setup.system)?;
-        let input_index = setup
-            .system
-            .inputs
-            .iter()
-            .position(|i| i.name == analysis_input)
-            .with_context(|| format!("{} has no input {analysis_input:?}", path.display()))?;
+    }
+    if let Some(p) = prediction {
         let mut predicted = (Vec::new(), Vec::new());
         for f in &curves.frequency_hz {
+            let (mil, emulated) = (
+                p.setup.system.point(*f, Loop::Mil)?,
+                p.setup.system.point(*f, Loop::Emulated)?,
+            );
             predicted
                 .0
-                .push(output.pick(&setup.system.point(*f, Loop::Mil)?, input_index));
+                .push(p.inputs.iter().map(|&i| p.output.pick(&mil, i)).sum());
             predicted
                 .1
-                .push(output.pick(&setup.system.point(*f, Loop::Emulated)?, input_index));
+                .push(p.inputs.iter().map(|&i| p.output.pick(&emulated, i)).sum());
         }
         summary.mil_vs_analysis = deviation(&curves.mil, &predicted.0);
         summary.emulated_vs_analysis = deviation(&curves.emulated, &predicted.1);
-        summary.analysis = Some(path.display().to_string());
+        summary.analysis = Some(p.path.display().to_string());
         curves.predicted = Some(predicted);
     }
     Ok(Some((summary, curves)))
 }
 
 impl SimOutput {
-    /// Writes the time histories as CSV: `time` (s), `road_<i>` (m), then per channel
+    /// Writes the time histories as CSV: `time` (s), the road inputs (m; `road_<i>`, or
+    /// `road_front`, `road_rear` and the vehicle `speed` (m/s) for the aero model), then per
+    /// channel
     /// `demand_<c>` (N), `mil_position_<c>` (m), `mil_force_<c>` (N),
     /// `emulated_position_<c>` (m), `emulated_force_<c>` (N), then `mode` and `fault`.
     ///
@@ -701,6 +893,13 @@ impl SimOutput {
                 format!("{} section(s)", s.filter_sections)
             }
         );
+        if let Some([lo, hi]) = s.speed_m_per_s {
+            out += &if lo == hi {
+                format!("vehicle speed {lo:.1} m/s\n")
+            } else {
+                format!("vehicle speed {lo:.1} to {hi:.1} m/s\n")
+            };
+        }
         out += "MiL vs emulated   signal     J1 delay [ms]  J2 NRMS [%]  J3 peak [%]   RMS error  peak error\n";
         for c in &s.channel {
             let in_band = format!("<{:.0} Hz", s.band_hz[1]);
@@ -737,6 +936,9 @@ impl SimOutput {
                 "  MiL vs emulated (both estimated): {}\n",
                 dev(&r.mil_vs_emulated)
             );
+            if let Some(note) = &r.analysis_skipped {
+                out += &format!("  analysis comparison skipped: {note}\n");
+            }
             if r.analysis.is_some() {
                 out += &format!(
                     "  MiL vs analysis prediction:      {}\n",

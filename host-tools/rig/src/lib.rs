@@ -14,7 +14,9 @@
 //! - [`sensors`] and [`link`]: measurement noise, quantisation and bandwidth; the CAN link
 //!   as a per-sample delay with fixed-point scaling and optional dropped or corrupted frames.
 //! - [`harness`]: model-core's controller step against the rig and the emulated system.
-//! - [`rigs`]: the paper's rigs assembled.
+//! - [`rigs`]: the paper's rigs assembled: the tyre and aero examples (the aero speed
+//!   constant or following a speed input), and any mass-spring-damper specimen coupled to
+//!   model-core's general substructure model.
 //! - [`metrics`]: MiL-vs-emulated error figures (J1–J3 of the real-time hybrid simulation
 //!   benchmark).
 //! - [`rng`]: the deterministic random generator behind every noise source.

@@ -1545,7 +1545,7 @@ impl Plant {
     /// road ramping from `road_from` to `road_to` (m per input). A piecewise-linear plant
     /// takes the same steps exactly while in its linear regime (see the module
     /// documentation); after a [`Plant::sample`] in the regime with the same demand and
-    /// `road_from`, the whole period is one product (see [`LinearModel`]).
+    /// `road_from`, the whole period is one matrix-vector product.
     ///
     /// When [`Plant::sample`] was called last with the same demand, `road_from` and the
     /// ramp's rate `(road_to − road_from) / duration_s` (m/s), the first RK4 stage is the

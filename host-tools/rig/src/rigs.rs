@@ -1,6 +1,8 @@
 //! The paper's rigs, ready to run: the quarter car on a hub-coupled rig with the numerical
-//! tyre (tyre example), and the half car on a four-poster with the numerical aerodynamic
-//! model driving front and rear down-force actuators (aero example), each with its emulated
+//! tyre (tyre example), the half car on a four-poster with the numerical aerodynamic model
+//! driving front and rear down-force actuators (aero example), and any mass-spring-damper
+//! specimen on force-controlled actuators coupled to model-core's general substructure
+//! model (configuration 4, e.g. the paper's 2-DOF example), each with its emulated
 //! counterpart.
 
 use crate::actuator::ForceActuator;
@@ -11,8 +13,9 @@ use crate::specimen::{Specimen, SpecimenError};
 use mil_analysis::examples::{AeroExample, TyreExample};
 use model_core::aero::MAP_POINTS;
 use model_core::{
-    AeroModel, AeroParams, CascadeCoefficients, Controller, ControllerParams, DemandLimits,
-    ModelInput, ParamError, TyreModel, TyreModelParams, TyreParams,
+    AeroModel, AeroParams, CascadeCoefficients, Causality, Controller, ControllerParams,
+    DemandLimits, ModelInput, ParamError, SubstructureParams, TyreModel, TyreModelParams,
+    TyreParams,
 };
 
 /// The ideal (emulated) tyre: the numerical tyre as a physical element between the road
@@ -203,13 +206,20 @@ pub fn paper_tyre_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
 ///
 /// with the parameters' own `l_f`, `l_r` (as the board has them) and the ride-height map
 /// interpolated bilinearly and clamped at its edges as model-core does. The model is
-/// stateless and uses neither the attachment velocities nor the road.
+/// stateless and uses neither the attachment velocities nor the posts' road inputs; the
+/// speed is constant ([`IdealAero::speed_m_per_s`]) or, with
+/// [`IdealAero::with_speed_input`], one of the plant's road inputs carrying the speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IdealAero {
     /// The board's aero parameters (their `f32` values, evaluated in `f64`).
     pub params: AeroParams,
-    /// Vehicle speed `v` (m/s), constant over a run.
+    /// Vehicle speed `v` (m/s): the speed of a run at constant speed, and the speed at the
+    /// start (the static equilibrium of [`half_car_part_varying_speed`]) of one whose speed
+    /// follows [`IdealAero::speed_input`].
     pub speed_m_per_s: f64,
+    /// Index of the plant's road input that carries the vehicle speed (m/s), if the speed
+    /// varies over the run; `None`: the constant [`IdealAero::speed_m_per_s`].
+    pub speed_input: Option<usize>,
 }
 
 /// Index of the map cell holding `h` (m) and the fractional position in it, clamped to the
@@ -247,19 +257,36 @@ fn map_bilinear(
 }
 
 impl IdealAero {
-    /// The emulated aero model of `params` at `speed_m_per_s` (m/s).
+    /// The emulated aero model of `params` at the constant speed `speed_m_per_s` (m/s).
     pub fn new(params: AeroParams, speed_m_per_s: f64) -> Self {
         Self {
             params,
             speed_m_per_s,
+            speed_input: None,
         }
     }
 
+    /// The same model with its speed (m/s) read from the plant's road input `input` (the
+    /// harness ramps it linearly between samples, as every road input);
+    /// [`IdealAero::speed_m_per_s`] stays the speed at the start.
+    pub fn with_speed_input(mut self, input: usize) -> Self {
+        self.speed_input = Some(input);
+        self
+    }
+
     /// Front and rear axle forces (N, up positive) at the axle displacements `x_front`,
-    /// `x_rear` (m, up positive, from the static ride height).
+    /// `x_rear` (m, up positive, from the static ride height) and the speed
+    /// [`IdealAero::speed_m_per_s`].
     pub fn axle_forces(&self, x_front: f64, x_rear: f64) -> [f64; 2] {
+        self.axle_forces_at(x_front, x_rear, self.speed_m_per_s)
+    }
+
+    /// Front and rear axle forces (N, up positive) at the axle displacements `x_front`,
+    /// `x_rear` (m) and the speed `speed_m_per_s` (m/s): the down force scales with
+    /// `(v / v_ref)²`.
+    pub fn axle_forces_at(&self, x_front: f64, x_rear: f64, speed_m_per_s: f64) -> [f64; 2] {
         let p = &self.params;
-        let ratio = self.speed_m_per_s / f64::from(p.reference_speed);
+        let ratio = speed_m_per_s / f64::from(p.reference_speed);
         let q = ratio * ratio;
         let (lf, lr) = (f64::from(p.front_axle), f64::from(p.rear_axle));
         let wheelbase = lf + lr;
@@ -304,12 +331,16 @@ impl IdealInterface for IdealAero {
         &self,
         y: &[f64],
         _y_dot: &[f64],
-        _road: &[f64],
+        road: &[f64],
         _road_rate: &[f64],
         forces: &mut [f64],
     ) {
         let x = |j: usize| y.get(j).copied().unwrap_or(0.0);
-        let f = self.axle_forces(x(0), x(1));
+        let speed = self
+            .speed_input
+            .and_then(|i| road.get(i).copied())
+            .unwrap_or(self.speed_m_per_s);
+        let f = self.axle_forces_at(x(0), x(1), speed);
         for (o, v) in forces.iter_mut().zip(f) {
             *o = v;
         }
@@ -330,9 +361,10 @@ impl IdealInterface for IdealAero {
 /// rounding, about 1e-4 N).
 ///
 /// # Errors
-/// An invalid specimen or step, or axle distances of `aero.params` that differ from the
+/// An invalid specimen or step, axle distances of `aero.params` that differ from the
 /// car's by more than 1 µm (the model would put its forces elsewhere than the actuators
-/// are).
+/// are), or an `aero` whose speed follows a road input (use
+/// [`half_car_part_varying_speed`]).
 pub fn half_car_part(
     car: &AeroExample,
     suspensions: (Element, Element),
@@ -340,6 +372,71 @@ pub fn half_car_part(
     aero: IdealAero,
     first_channel: usize,
     road_inputs: [usize; 2],
+    internal_step_s: f64,
+) -> Result<RigPart, SpecimenError> {
+    if aero.speed_input.is_some() {
+        return Err(SpecimenError(
+            "half_car_part runs at the constant speed: a varying speed needs \
+             half_car_part_varying_speed"
+                .into(),
+        ));
+    }
+    build_half_car(
+        car,
+        suspensions,
+        actuator,
+        aero,
+        first_channel,
+        road_inputs,
+        None,
+        internal_step_s,
+    )
+}
+
+/// [`half_car_part`] with a speed that varies over the run: the run's road input
+/// `speed_input` carries the vehicle speed (m/s) per sample. The emulated aero model reads
+/// it as its plant's third road input (after the two posts; the suspensions do not use it),
+/// ramped linearly between samples like every road input; the board reads the same column
+/// ([`aero_input_varying_speed`]). `aero.speed_m_per_s` is the speed at the start: the
+/// suspensions' preloads carry the down force at that speed, so the rig starts at rest when
+/// the actuators hold [`aero_static_demand`] at it.
+///
+/// # Errors
+/// As [`half_car_part`].
+#[allow(clippy::too_many_arguments)]
+pub fn half_car_part_varying_speed(
+    car: &AeroExample,
+    suspensions: (Element, Element),
+    actuator: ForceActuator,
+    aero: IdealAero,
+    first_channel: usize,
+    road_inputs: [usize; 2],
+    speed_input: usize,
+    internal_step_s: f64,
+) -> Result<RigPart, SpecimenError> {
+    build_half_car(
+        car,
+        suspensions,
+        actuator,
+        aero.with_speed_input(2),
+        first_channel,
+        road_inputs,
+        Some(speed_input),
+        internal_step_s,
+    )
+}
+
+/// The half car's rig part; with `speed_input`, the emulated specimen takes the speed as
+/// its third road input (`aero` reads its input 2).
+#[allow(clippy::too_many_arguments)]
+fn build_half_car(
+    car: &AeroExample,
+    suspensions: (Element, Element),
+    actuator: ForceActuator,
+    aero: IdealAero,
+    first_channel: usize,
+    road_inputs: [usize; 2],
+    speed_input: Option<usize>,
     internal_step_s: f64,
 ) -> Result<RigPart, SpecimenError> {
     let p = &aero.params;
@@ -358,12 +455,21 @@ pub fn half_car_part(
     for (e, f) in specimen.elements.iter_mut().zip(aero.static_forces()) {
         e.element.preload_n -= f;
     }
+    let mut emulated = specimen.clone();
+    let mut emulated_inputs = road_inputs.to_vec();
+    if let Some(speed) = speed_input {
+        emulated.inputs.push("speed".into());
+        for e in &mut emulated.elements {
+            e.input_coefficients.push(0.0);
+        }
+        emulated_inputs.push(speed);
+    }
     Ok(RigPart {
-        mil: Plant::with_actuators(specimen.clone(), vec![actuator; 2], internal_step_s)?,
-        emulated: Plant::with_ideal_interface(specimen, Box::new(aero), internal_step_s)?,
+        mil: Plant::with_actuators(specimen, vec![actuator; 2], internal_step_s)?,
+        emulated: Plant::with_ideal_interface(emulated, Box::new(aero), internal_step_s)?,
         first_channel,
         mil_inputs: road_inputs.to_vec(),
-        emulated_inputs: road_inputs.to_vec(),
+        emulated_inputs,
     })
 }
 
@@ -415,6 +521,18 @@ pub fn aero_input(
     }
 }
 
+/// The aero controller's input builder for a speed that varies over the run: as
+/// [`aero_input`], with the speed (m/s) taken from the run's road input `speed_input` at
+/// each sample (the column [`half_car_part_varying_speed`] gives the emulated model).
+pub fn aero_input_varying_speed(
+    speed_input: usize,
+) -> impl Fn(&[f64; 2], &[f64; 2], &[f64], usize) -> ModelInput<2> + Copy {
+    move |position, force, road, sample| {
+        let speed = road.get(speed_input).copied().unwrap_or(0.0);
+        aero_input(speed)(position, force, road, sample)
+    }
+}
+
 /// The paper's aero example on channels 0 (front) and 1 (rear): [`AeroExample::default`]'s
 /// half car with its linear suspensions, the reference actuator without effects at each
 /// axle, and the emulated aero model of [`AeroParams::PAPER`] at its reference speed
@@ -440,6 +558,251 @@ pub fn paper_aero_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
         [0, 1],
         internal_step_s,
     )
+}
+
+/// The ideal (emulated) numerical substructure of model-core's
+/// [`SubstructureParams`] under [`Causality::Impedance`] (the paper's configuration 4:
+/// `B_i` numerical, force-controlled actuators), as the interface law of an emulated plant
+/// whose specimen holds the physical DOFs *and* the numerical masses.
+///
+/// The emulated plant's attachments are, in order, the `m` actuator channels' attachment
+/// points `y_c` on the physical specimen, then one attachment per numerical DOF (`x_n,i`,
+/// the unit vector of that DOF), and its road inputs are the physical specimen's, then the
+/// model's road input `w_c` of each channel. The law, evaluated continuously in `f64` from
+/// the board's `f32` parameters:
+///
+/// ```text
+/// channel c:        F_c = k_i,c (x_n,d(c) − y_c) + c_i,c (ẋ_n,d(c) − ẏ_c)     (on the physical part)
+/// numerical DOF i:  G_i = −(K' x_n + C' ẋ_n)_i + Σ_c (G_k[i][c] w_c + G_c[i][c] ẇ_c)
+///                         − Σ_{c: d(c) = i} F_c
+/// ```
+///
+/// with `K' = K + diag(Σ_c G_k[·][c])`, `C' = C + diag(Σ_c G_c[·][c])` (model-core folds the
+/// road springs and dampers into the diagonal the same way), so that the numerical masses
+/// obey `M ẍ_n = G`, model-core's equation with the exact (not estimated) interface velocity.
+/// The law is affine ([`IdealInterface::affine`]), so a linear specimen takes exact steps.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IdealSubstructure {
+    /// The affine law over the attachments and road inputs described above.
+    pub law: AffineInterface,
+}
+
+impl IdealSubstructure {
+    /// The law of `params` for an emulated plant whose physical specimen has
+    /// `specimen_inputs` road inputs (the model's `CH` road inputs follow them).
+    ///
+    /// # Errors
+    /// A causality other than [`Causality::Impedance`] (the rig's actuators are
+    /// force-controlled and the law needs `B_i` numerical), or parameters model-core
+    /// refuses.
+    pub fn new<const CH: usize>(
+        params: &SubstructureParams<CH>,
+        specimen_inputs: usize,
+    ) -> Result<Self, SpecimenError> {
+        params
+            .validate()
+            .map_err(|e| SpecimenError(format!("substructure parameters: {e:?}")))?;
+        if params.causality() != Some(Causality::Impedance) {
+            return Err(SpecimenError(format!(
+                "substructure causality {:?}: the simulated rig's actuators are \
+                 force-controlled, so the numerical model must compute B_i (impedance, the \
+                 paper's configuration 4)",
+                params.causality()
+            )));
+        }
+        let n = params.dof as usize;
+        let rows = CH + n;
+        let inputs = specimen_inputs + CH;
+        let f = f64::from;
+        let mut position = vec![vec![0.0; rows]; rows];
+        let mut velocity = vec![vec![0.0; rows]; rows];
+        let mut road = vec![vec![0.0; inputs]; rows];
+        let mut road_rate = vec![vec![0.0; inputs]; rows];
+        for i in 0..n {
+            for j in 0..n {
+                position[CH + i][CH + j] -= f(params.stiffness[i][j]);
+                velocity[CH + i][CH + j] -= f(params.damping[i][j]);
+            }
+            for c in 0..CH {
+                let (k, d) = (
+                    f(params.ground_stiffness[i][c]),
+                    f(params.ground_damping[i][c]),
+                );
+                position[CH + i][CH + i] -= k;
+                velocity[CH + i][CH + i] -= d;
+                road[CH + i][specimen_inputs + c] += k;
+                road_rate[CH + i][specimen_inputs + c] += d;
+            }
+        }
+        for (c, interface) in params.interface.iter().enumerate() {
+            let d = CH + interface.dof as usize;
+            let (k, damping) = (f(interface.stiffness), f(interface.damping));
+            // F_c on the physical attachment ...
+            position[c][d] += k;
+            position[c][c] -= k;
+            velocity[c][d] += damping;
+            velocity[c][c] -= damping;
+            // ... and −F_c on the numerical DOF.
+            position[d][d] -= k;
+            position[d][c] += k;
+            velocity[d][d] -= damping;
+            velocity[d][c] += damping;
+        }
+        Ok(Self {
+            law: AffineInterface {
+                offset_n: vec![0.0; rows],
+                position_n_per_m: position,
+                velocity_n_s_per_m: velocity,
+                road_n_per_m: road,
+                road_rate_n_s_per_m: road_rate,
+                lower_bound_n: vec![f64::NEG_INFINITY; rows],
+            },
+        })
+    }
+}
+
+impl IdealInterface for IdealSubstructure {
+    fn affine(&self) -> Option<AffineInterface> {
+        Some(self.law.clone())
+    }
+
+    fn forces(
+        &self,
+        y: &[f64],
+        y_dot: &[f64],
+        road: &[f64],
+        road_rate: &[f64],
+        forces: &mut [f64],
+    ) {
+        let a = &self.law;
+        let dot = |row: &[f64], v: &[f64]| row.iter().zip(v).map(|(p, q)| p * q).sum::<f64>();
+        for (j, out) in forces.iter_mut().enumerate() {
+            *out = a.offset_n[j]
+                + dot(&a.position_n_per_m[j], y)
+                + dot(&a.velocity_n_s_per_m[j], y_dot)
+                + dot(&a.road_n_per_m[j], road)
+                + dot(&a.road_rate_n_s_per_m[j], road_rate);
+        }
+    }
+}
+
+/// A mass-spring-damper specimen on force-controlled actuators with model-core's general
+/// substructure as the numerical part (configuration 4): the MiL rig is `specimen` with
+/// `actuators[c]` at its attachment `c` (controller channel `first_channel + c`); the
+/// emulated system is the same specimen coupled ideally to the numerical masses of `params`
+/// through `B_i` ([`IdealSubstructure`]: the emulated specimen holds the physical DOFs and,
+/// after them, the numerical ones). The physical specimen's road inputs are driven by the
+/// run's road inputs `specimen_inputs` (indices, one per `specimen.inputs`), the model's
+/// road input of channel `c` by the run's road input `model_roads[c]` (the board reads the
+/// same columns, [`substructure_input`]).
+///
+/// The numerical model's output at rest is zero (no static force), so the specimen must be
+/// in static equilibrium at `q = 0` with zero actuator force: its element preloads carry its
+/// static forces ([`Specimen::static_imbalance`]).
+///
+/// # Errors
+/// An invalid specimen or step, attachments or actuators other than `CH`, a specimen not at
+/// rest with zero actuator force (imbalance above 1e-6 N), an input map of the wrong
+/// length, or substructure parameters [`IdealSubstructure::new`] refuses.
+#[allow(clippy::too_many_arguments)]
+pub fn substructure_part<const CH: usize>(
+    specimen: Specimen,
+    actuators: Vec<ForceActuator>,
+    params: &SubstructureParams<CH>,
+    first_channel: usize,
+    specimen_inputs: &[usize],
+    model_roads: [usize; CH],
+    internal_step_s: f64,
+) -> Result<RigPart, SpecimenError> {
+    specimen.validate()?;
+    if specimen.attachments.len() != CH || actuators.len() != CH {
+        return Err(SpecimenError(format!(
+            "the substructure serves {CH} channel(s): the specimen has {} attachment(s) and \
+             {} actuator(s)",
+            specimen.attachments.len(),
+            actuators.len()
+        )));
+    }
+    if specimen_inputs.len() != specimen.inputs.len() {
+        return Err(SpecimenError(format!(
+            "{} road input(s) mapped for the specimen's {}",
+            specimen_inputs.len(),
+            specimen.inputs.len()
+        )));
+    }
+    let imbalance = specimen.static_imbalance(&[0.0; CH]);
+    if let Some((dof, f)) = imbalance.iter().enumerate().find(|(_, f)| f.abs() > 1e-6) {
+        return Err(SpecimenError(format!(
+            "not at rest with zero actuator force (the substructure's static demand): \
+             generalised force {f:.6} N on DOF {:?}; balance static_force with the elements' \
+             preloads",
+            specimen.dofs[dof]
+        )));
+    }
+    let law = IdealSubstructure::new(params, specimen.inputs.len())?;
+    let (np, nn) = (specimen.len(), params.dof as usize);
+    let pad = |v: &[f64], extra: usize| -> Vec<f64> {
+        v.iter()
+            .copied()
+            .chain(std::iter::repeat_n(0.0, extra))
+            .collect()
+    };
+    let mut emulated = specimen.clone();
+    emulated
+        .dofs
+        .extend((0..nn).map(|i| format!("numerical_{i}")));
+    emulated.mass = specimen
+        .mass
+        .iter()
+        .map(|row| pad(row, nn))
+        .chain((0..nn).map(|i| {
+            let mut row = vec![0.0; np];
+            row.extend((0..nn).map(|j| f64::from(params.mass[i][j])));
+            row
+        }))
+        .collect();
+    emulated.static_force = pad(&specimen.static_force, nn);
+    for e in &mut emulated.elements {
+        e.dof_coefficients = pad(&e.dof_coefficients, nn);
+        e.input_coefficients = pad(&e.input_coefficients, CH);
+    }
+    emulated
+        .inputs
+        .extend((0..CH).map(|c| format!("model_road_{c}")));
+    emulated.attachments = specimen
+        .attachments
+        .iter()
+        .map(|t| pad(t, nn))
+        .chain((0..nn).map(|i| {
+            let mut t = vec![0.0; np + nn];
+            t[np + i] = 1.0;
+            t
+        }))
+        .collect();
+    let mut emulated_inputs = specimen_inputs.to_vec();
+    emulated_inputs.extend(model_roads);
+    Ok(RigPart {
+        mil: Plant::with_actuators(specimen, actuators, internal_step_s)?,
+        emulated: Plant::with_ideal_interface(emulated, Box::new(law), internal_step_s)?,
+        first_channel,
+        mil_inputs: specimen_inputs.to_vec(),
+        emulated_inputs,
+    })
+}
+
+/// The substructure controller's input builder (the `input` argument of
+/// [`crate::harness::run`]): the received attachment positions (m) and forces (N) per
+/// channel, and per channel `c` the run's road input `model_roads[c]` (m) as the model's
+/// road input; speed zero.
+pub fn substructure_input<const CH: usize>(
+    model_roads: [usize; CH],
+) -> impl Fn(&[f64; CH], &[f64; CH], &[f64], usize) -> ModelInput<CH> + Copy {
+    move |position, force, road, _sample| ModelInput {
+        position: position.map(|v| v as f32),
+        force: force.map(|v| v as f32),
+        road: model_roads.map(|i| road.get(i).copied().unwrap_or(0.0) as f32),
+        speed: 0.0,
+    }
 }
 
 #[cfg(test)]
@@ -533,5 +896,232 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The paper's 2-DOF example (m_n = 10 kg on 4e4 N/m, 20 N s/m from its road; B_i =
+    /// 1e4 N/m, 5 N s/m) as the board's substructure, configuration 4.
+    fn two_dof_numerical() -> SubstructureParams<1> {
+        let mut p = SubstructureParams::<1>::zeroed(1, Causality::Impedance);
+        p.mass[0][0] = 10.0;
+        p.ground_stiffness[0][0] = 4.0e4;
+        p.ground_damping[0][0] = 20.0;
+        p.interface[0] = model_core::InterfaceParams {
+            dof: 0,
+            stiffness: 1.0e4,
+            damping: 5.0,
+        };
+        p
+    }
+
+    /// Its physical mass, 5 kg on 2e4 N/m and 10 N s/m to the bed, carrying its weight
+    /// with `preload` (N).
+    fn two_dof_physical(preload: f64) -> Specimen {
+        Specimen {
+            dofs: vec!["x_p".into()],
+            mass: vec![vec![5.0]],
+            static_force: vec![-5.0 * crate::specimen::GRAVITY_M_PER_S2],
+            elements: vec![crate::specimen::PlacedElement {
+                name: "k_p".into(),
+                element: Element::linear(2.0e4, 10.0).with_preload(preload),
+                dof_coefficients: vec![-1.0],
+                input_coefficients: vec![],
+            }],
+            inputs: vec![],
+            attachments: vec![vec![1.0]],
+        }
+    }
+
+    fn reference_actuator() -> ForceActuator {
+        ForceActuator::new(
+            mil_analysis::ServoHydraulicActuator::REFERENCE,
+            crate::actuator::ActuatorEffects::default(),
+        )
+        .unwrap()
+    }
+
+    /// The ideal substructure law is model-core's equation: the interface force on the
+    /// physical attachment and the forces on the numerical mass, term by term.
+    #[test]
+    fn ideal_substructure_is_the_models_law() {
+        let law = IdealSubstructure::new(&two_dof_numerical(), 1).unwrap();
+        // Attachments [y_p, x_n], inputs [specimen's post, model road].
+        let (y, y_dot, w, w_dot) = ([0.002, -0.001], [0.1, 0.3], [0.5, 0.004], [7.0, -0.2]);
+        let mut f = [0.0; 2];
+        law.forces(&y, &y_dot, &w, &w_dot, &mut f);
+        let interface = 1.0e4 * (y[1] - y[0]) + 5.0 * (y_dot[1] - y_dot[0]);
+        let numerical = -4.0e4 * (y[1] - w[1]) - 20.0 * (y_dot[1] - w_dot[1]) - interface;
+        assert!((f[0] - interface).abs() < 1e-9, "{f:?}");
+        assert!((f[1] - numerical).abs() < 1e-9, "{f:?}");
+        assert!(law.affine().is_some());
+        // Other causalities need a position-controlled actuator or B_i on the rig.
+        let mut other = two_dof_numerical();
+        other.causality = Causality::PrescribedMotion as u32;
+        let e = IdealSubstructure::new(&other, 0).unwrap_err();
+        assert!(e.0.contains("impedance"), "{e}");
+    }
+
+    /// The 2-DOF rig starts and stays at rest (the spring's preload carries the weight, the
+    /// model demands nothing at rest); a specimen that is not balanced is refused.
+    #[test]
+    fn substructure_rig_starts_at_rest_and_an_unbalanced_specimen_is_refused() {
+        let weight = 5.0 * crate::specimen::GRAVITY_M_PER_S2;
+        let params = two_dof_numerical();
+        let mut parts = vec![substructure_part(
+            two_dof_physical(weight),
+            vec![reference_actuator()],
+            &params,
+            0,
+            &[],
+            [0],
+            100e-6,
+        )
+        .unwrap()];
+        // The emulated plant holds both masses and takes exact steps.
+        assert_eq!(parts[0].emulated.specimen().len(), 2);
+        assert!(parts[0].emulated.has_exact_steps());
+        let limits = DemandLimits {
+            min: -1000.0,
+            max: 1000.0,
+            rate: 1.0e9,
+        };
+        let mut controller: Controller<model_core::SubstructureModel<1>, 1> =
+            Controller::with_params(
+                &ControllerParams {
+                    model: params,
+                    filter: [CascadeCoefficients::IDENTITY],
+                    limits: [limits],
+                    safe_demand: [0.0],
+                    safe_ramp_rate: [1.0e5],
+                },
+                (1.0 / FS) as f32,
+            )
+            .unwrap();
+        let (h, _) = run(
+            &mut controller,
+            &mut parts,
+            &Instrumentation::default(),
+            FS,
+            &[vec![0.0; 1000]],
+            &[0.0],
+            substructure_input([0]),
+            |_| {},
+        )
+        .unwrap();
+        assert!(h.status.iter().all(|s| s.fault == 0));
+        for v in [&h.mil_force[0], &h.mil_position[0], &h.emulated_force[0]] {
+            assert!(v.iter().all(|x| x.abs() < 1e-9), "{:?}", &v[..4]);
+        }
+        let e = substructure_part(
+            two_dof_physical(0.9 * weight),
+            vec![reference_actuator()],
+            &params,
+            0,
+            &[],
+            [0],
+            100e-6,
+        )
+        .err()
+        .unwrap();
+        assert!(e.0.contains("not at rest with zero actuator force"), "{e}");
+        assert!(e.0.contains("-4.905"), "{e}");
+    }
+
+    /// A speed column that holds the constant speed gives exactly the constant-speed rig's
+    /// run (the emulated model reads the column, the board the same samples), and the
+    /// constant-speed builder refuses a model whose speed follows a column.
+    #[test]
+    fn a_constant_speed_column_matches_the_constant_speed_rig() {
+        let params = AeroParams::PAPER;
+        let speed = 45.0;
+        let car = AeroExample::default();
+        let limits = DemandLimits {
+            min: -20_000.0,
+            max: 20_000.0,
+            rate: 1.0e9,
+        };
+        let road: Vec<f64> = (0..2000).map(|k| 1e-3 * (0.02 * k as f64).sin()).collect();
+        let aero = IdealAero::new(params, speed);
+        let constant = half_car_part(
+            &car,
+            Specimen::half_car_suspensions(&car),
+            reference_actuator(),
+            aero,
+            0,
+            [0, 1],
+            100e-6,
+        )
+        .unwrap();
+        let varying = half_car_part_varying_speed(
+            &car,
+            Specimen::half_car_suspensions(&car),
+            reference_actuator(),
+            aero,
+            0,
+            [0, 1],
+            2,
+            100e-6,
+        )
+        .unwrap();
+        let columns = [road.clone(), road, vec![speed; 2000]];
+        let mut runs = Vec::new();
+        for (part, varying) in [(constant, false), (varying, true)] {
+            let mut controller = aero_controller(params, limits, FS).unwrap();
+            let demand = aero_static_demand(&params, speed);
+            let mut parts = vec![part];
+            let (h, _) = if varying {
+                run(
+                    &mut controller,
+                    &mut parts,
+                    &Instrumentation::default(),
+                    FS,
+                    &columns,
+                    &demand,
+                    aero_input_varying_speed(2),
+                    |_| {},
+                )
+            } else {
+                run(
+                    &mut controller,
+                    &mut parts,
+                    &Instrumentation::default(),
+                    FS,
+                    &columns[..2],
+                    &demand,
+                    aero_input(speed),
+                    |_| {},
+                )
+            }
+            .unwrap();
+            runs.push(h);
+        }
+        for c in 0..2 {
+            for (a, b) in [
+                (&runs[0].mil_force[c], &runs[1].mil_force[c]),
+                (&runs[0].emulated_force[c], &runs[1].emulated_force[c]),
+                (&runs[0].emulated_position[c], &runs[1].emulated_position[c]),
+            ] {
+                let worst = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
+                assert!(
+                    worst < 1e-9 * a.iter().fold(1.0_f64, |m, x| m.max(x.abs())),
+                    "{worst}"
+                );
+            }
+        }
+        let e = half_car_part(
+            &car,
+            Specimen::half_car_suspensions(&car),
+            reference_actuator(),
+            aero.with_speed_input(2),
+            0,
+            [0, 1],
+            100e-6,
+        )
+        .err()
+        .unwrap();
+        assert!(e.0.contains("half_car_part_varying_speed"), "{e}");
     }
 }

@@ -164,6 +164,26 @@ impl Specimen {
         self.dofs.is_empty()
     }
 
+    /// The generalised force (N, N·m per DOF) left over at `q = 0`, `q̇ = 0` on a level road
+    /// (`w = 0`) with the actuators applying `interface_forces` (N per attachment):
+    /// `g − Σ_e a_e F_e(0, 0) + Σ_j t_j F_j`, element internal states at zero. Zero (to
+    /// rounding) for a specimen at rest there (see the module documentation).
+    pub fn static_imbalance(&self, interface_forces: &[f64]) -> Vec<f64> {
+        let mut g = self.static_force.clone();
+        for e in &self.elements {
+            let f = e.element.force(0.0, 0.0, 0.0);
+            for (gi, a) in g.iter_mut().zip(&e.dof_coefficients) {
+                *gi -= a * f;
+            }
+        }
+        for (t, f) in self.attachments.iter().zip(interface_forces) {
+            for (gi, ti) in g.iter_mut().zip(t) {
+                *gi += ti * f;
+            }
+        }
+        g
+    }
+
     /// Checks dimensions, finiteness, a positive definite mass matrix and every element.
     ///
     /// # Errors
@@ -216,5 +236,23 @@ impl Specimen {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The built-in quarter car is at rest at `q = 0` with the actuator carrying its weight,
+    /// and not without it.
+    #[test]
+    fn static_imbalance_of_the_quarter_car() {
+        let car = TyreExample::default();
+        let s = Specimen::quarter_car(&car, Specimen::quarter_car_suspension(&car));
+        let weight = (car.sprung_mass_kg + car.unsprung_mass_kg) * GRAVITY_M_PER_S2;
+        assert!(s.static_imbalance(&[weight]).iter().all(|f| f.abs() < 1e-9));
+        let without = s.static_imbalance(&[0.0]);
+        assert!(without[0].abs() < 1e-9, "{without:?}");
+        assert!((without[1] + weight).abs() < 1e-9, "{without:?}");
     }
 }
