@@ -1,0 +1,1346 @@
+//! The workflow: recalibrate, try candidate effects, select by a validation criterion,
+//! refine by output error, and report.
+//!
+//! 1. The record is split into a fitting part (the first `1 − validation_fraction`) and a
+//!    validation part (the rest).
+//! 2. **Recalibration** of the linear parameters (masses if a force input fixes the scale,
+//!    stiffnesses and dampings that are non-zero in the model, one constant force per DOF)
+//!    by equation-error least squares on the fitting part ([`crate::equation`]).
+//! 3. **Candidates**: each effect on each element (or input) it applies to, its
+//!    coefficients fitted together with the linear parameters (linear least squares; effects
+//!    with a threshold-like parameter — gap, preload, delay, limits, Bouc-Wen shape — by a
+//!    grid over quantiles of the data, each grid point a linear fit).
+//! 4. **Selection** on the validation part by the Bayesian information criterion
+//!    `Δ = n_eff ln(SSE_candidate / SSE_current) + p ln(n_eff)` with `p` the candidate's
+//!    added parameters and `n_eff` the validation rows divided by the current residual's
+//!    correlation time (so filtered, correlated residuals do not count as independent
+//!    samples). The candidate with the most negative `Δ` is named and added; repeat (greedy
+//!    forward selection) until no candidate has `Δ < 0` or `max_effects` are named. No
+//!    threshold depends on the record.
+//! 5. **Output-error refinement** (models restrained on their own): Levenberg–Marquardt on the
+//!    simulated outputs over the fitting part, all named effects' parameters and the linear
+//!    ones free; kept if it lowers the validation error.
+//! 6. **Gap**: NRMSE of the simulated outputs on the validation part (restrained models),
+//!    else of the inverse-dynamics force prediction (equation-error residual over the
+//!    right-hand side's spread).
+
+use crate::effects::{BoucWen, EffectKind};
+use crate::equation::{self, Coef, States};
+use crate::evidence::{self, BandEvidence, RegionEvidence, WindowEvidence};
+use crate::model::{InputKind, Model};
+use crate::record::Record;
+use crate::simulate::{self, prepare_inputs};
+use crate::{signal, Error, Result};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Options of [`diagnose`].
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Fraction of the record (its end) held out for validation, in (0, 0.9]; default 0.3.
+    pub validation_fraction: f64,
+    /// Most effects named; default 3.
+    pub max_effects: usize,
+    /// Effects tried; default all.
+    pub candidates: Vec<EffectKind>,
+    /// Refine by output error (simulation) when the model is restrained; default true.
+    pub output_error: bool,
+    /// Print progress lines to stderr; default false.
+    pub progress: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            validation_fraction: 0.3,
+            max_effects: 3,
+            candidates: EffectKind::ALL.to_vec(),
+            output_error: true,
+            progress: false,
+        }
+    }
+}
+
+/// The error figure of a model on the validation part.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Gap {
+    /// Normalised RMS error (fraction): RMS over the outputs of
+    /// `rms(model − measured) / std(measured)`.
+    pub nrmse: f64,
+}
+
+/// A named effect as reported in the JSON object.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NamedEffect {
+    /// Identifier (e.g. `cubic_stiffness`).
+    pub effect: EffectKind,
+    /// Element or input it is attached to.
+    pub element: String,
+    /// Fitted parameters (SI names, see [`EffectKind`]).
+    pub parameters: BTreeMap<String, f64>,
+}
+
+/// A named effect with its uncertainty and score.
+#[derive(Clone, Debug, Serialize)]
+pub struct NamedDetail {
+    /// The effect and its parameters.
+    pub named: NamedEffect,
+    /// One standard deviation of each parameter (same names and units).
+    pub std: BTreeMap<String, f64>,
+    /// Criterion `Δ` when it was selected (negative; more negative is stronger evidence).
+    pub criterion: f64,
+    /// Validation SSE ratio (candidate / model before it) when selected.
+    pub sse_ratio: f64,
+}
+
+/// One candidate's score in one selection round.
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateScore {
+    /// Round (0 = first effect).
+    pub round: usize,
+    /// Effect.
+    pub effect: EffectKind,
+    /// Element or input.
+    pub element: String,
+    /// Criterion `Δ` (negative = better than the current model).
+    pub criterion: f64,
+    /// Validation SSE ratio (candidate / current).
+    pub sse_ratio: f64,
+    /// Parameters added.
+    pub parameters_added: usize,
+}
+
+/// How the gap is measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GapBasis {
+    /// Simulated outputs (the model is restrained on its own).
+    Simulation,
+    /// Inverse-dynamics prediction (equation error), for models that drift when simulated.
+    EquationError,
+}
+
+/// Everything the workflow found.
+#[derive(Clone, Debug)]
+pub struct Diagnosis {
+    /// The model as given.
+    pub original: Model,
+    /// The recalibrated linear model (no effects added).
+    pub recalibrated_model: Model,
+    /// The updated model: recalibrated, with the named effects.
+    pub updated: Model,
+    /// Corrected linear parameters (e.g. `"spring.stiffness_n_per_m"`) of the updated model.
+    pub recalibrated: BTreeMap<String, f64>,
+    /// One standard deviation of each corrected parameter (equation-error estimate).
+    pub recalibrated_std: BTreeMap<String, f64>,
+    /// Named effects.
+    pub named: Vec<NamedDetail>,
+    /// Every candidate's score, all rounds.
+    pub candidates: Vec<CandidateScore>,
+    /// Gap of the model as given.
+    pub gap_before: Gap,
+    /// Gap of the recalibrated linear model.
+    pub gap_recalibrated: Gap,
+    /// Gap of the updated model.
+    pub gap_after: Gap,
+    /// How the gaps are measured.
+    pub basis: GapBasis,
+    /// Fitting samples `0..fit_end`, validation `fit_end..len`.
+    pub fit_end: usize,
+    /// Filter cut-off of the state estimate (Hz).
+    pub cutoff_hz: f64,
+    /// Frequency-band evidence (simulation basis only).
+    pub bands: Vec<BandEvidence>,
+    /// Operating-region evidence per named element effect (baseline residual).
+    pub regions: Vec<RegionEvidence>,
+    /// Time-window evidence (validation part).
+    pub windows: Vec<WindowEvidence>,
+    /// Remarks (e.g. output-error refinement kept or not).
+    pub notes: Vec<String>,
+}
+
+/// The JSON object of `mil diagnose --json` (exactly the keys).
+#[derive(Clone, Debug, Serialize)]
+pub struct JsonReport {
+    /// Named effects; empty when no missing effect was found.
+    pub named_effects: Vec<NamedEffect>,
+    /// Corrected linear parameters.
+    pub recalibrated: BTreeMap<String, f64>,
+    /// Gap of the model as given (validation part).
+    pub gap_before: Gap,
+    /// Gap of the updated model (validation part).
+    pub gap_after: Gap,
+    /// Path of the updated model file.
+    pub updated_model: String,
+}
+
+impl Diagnosis {
+    /// The JSON report, naming `updated_model` as the updated model's path.
+    pub fn json_report(&self, updated_model: &str) -> JsonReport {
+        JsonReport {
+            named_effects: self.named.iter().map(|n| n.named.clone()).collect(),
+            recalibrated: self.recalibrated.clone(),
+            gap_before: self.gap_before,
+            gap_after: self.gap_after,
+            updated_model: updated_model.to_string(),
+        }
+    }
+
+    /// Writes `updated.toml` (the updated model) and `report.json` into `dir` (created if
+    /// needed); returns the updated model's path.
+    ///
+    /// # Errors
+    /// The files cannot be written.
+    pub fn write(&self, dir: &Path) -> Result<PathBuf> {
+        let io = |p: &Path, source| Error::Io {
+            path: p.display().to_string(),
+            source,
+        };
+        std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+        let path = dir.join("updated.toml");
+        std::fs::write(&path, self.updated.to_toml()).map_err(|e| io(&path, e))?;
+        let report = self.json_report(&path.display().to_string());
+        let json = serde_json::to_string_pretty(&report).unwrap_or_default();
+        let rpath = dir.join("report.json");
+        std::fs::write(&rpath, json).map_err(|e| io(&rpath, e))?;
+        Ok(path)
+    }
+
+    /// A human summary: named effects with parameters ± one standard deviation, the
+    /// recalibrated parameters, the gaps and the evidence.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let basis = match self.basis {
+            GapBasis::Simulation => "simulated outputs",
+            GapBasis::EquationError => "inverse-dynamics force prediction",
+        };
+        s.push_str(&format!(
+            "model {:?}: gap on the validation part ({basis}): {:.4} as given, {:.4} recalibrated, {:.4} updated\n",
+            self.original.file.name,
+            self.gap_before.nrmse,
+            self.gap_recalibrated.nrmse,
+            self.gap_after.nrmse
+        ));
+        s.push_str("recalibrated:\n");
+        for (k, v) in &self.recalibrated {
+            let sd = self.recalibrated_std.get(k).copied().unwrap_or(f64::NAN);
+            s.push_str(&format!("  {k} = {v:.6e} ± {sd:.2e}\n"));
+        }
+        if self.named.is_empty() {
+            s.push_str("no missing effect found (every candidate's criterion >= 0)\n");
+        }
+        for n in &self.named {
+            s.push_str(&format!(
+                "named: {} on {:?} (criterion {:.1}, validation SSE x{:.3})\n",
+                n.named.effect, n.named.element, n.criterion, n.sse_ratio
+            ));
+            for (k, v) in &n.named.parameters {
+                let sd = n.std.get(k).copied().unwrap_or(f64::NAN);
+                s.push_str(&format!("  {k} = {v:.6e} ± {sd:.2e}\n"));
+            }
+        }
+        for r in &self.regions {
+            let (a, b) = r.worst_bin;
+            s.push_str(&format!(
+                "  region: {:?} misses {:.3e} N on average at x in [{:.3e}, {:.3e}] m, v in [{:.3e}, {:.3e}] m/s\n",
+                r.element,
+                r.mean_residual_n[a][b],
+                r.x_edges_m[a],
+                r.x_edges_m[a + 1],
+                r.v_edges_m_per_s[b],
+                r.v_edges_m_per_s[b + 1]
+            ));
+        }
+        if let Some(b) = self.bands.iter().max_by(|a, b| {
+            (a.error_before - a.error_after).total_cmp(&(b.error_before - b.error_after))
+        }) {
+            s.push_str(&format!(
+                "  band: {}->{} {:.1}-{:.1} Hz FRF error {:.3} -> {:.3} (coherence {:.2})\n",
+                b.input,
+                b.output,
+                b.band_hz[0],
+                b.band_hz[1],
+                b.error_before,
+                b.error_after,
+                b.coherence
+            ));
+        }
+        for n in &self.notes {
+            s.push_str(&format!("note: {n}\n"));
+        }
+        s
+    }
+}
+
+/// Parameters with their covariance.
+type Covariance = (Vec<Param>, DMatrix<f64>);
+
+/// A parameter the output-error refinement can move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Param {
+    Lin(Coef),
+    BumpGap(usize),
+    RebGap(usize),
+    Backlash(usize),
+    Preload(usize),
+    Beta(usize),
+    Gamma(usize),
+    Delay(usize),
+    Rate(usize),
+    Sat(usize),
+}
+
+impl Param {
+    fn get(self, m: &Model) -> f64 {
+        let l = |e: usize| &m.elements[e].law;
+        match self {
+            Param::Lin(c) => c.get(m),
+            Param::BumpGap(e) => l(e).bump.map_or(0.0, |b| b.0),
+            Param::RebGap(e) => l(e).rebound.map_or(0.0, |b| b.0),
+            Param::Backlash(e) => l(e).backlash.unwrap_or(0.0),
+            Param::Preload(e) => l(e).lift_off.unwrap_or(0.0),
+            Param::Beta(e) => l(e).hysteresis.map_or(0.0, |h| h.beta),
+            Param::Gamma(e) => l(e).hysteresis.map_or(0.0, |h| h.gamma),
+            Param::Delay(j) => m.inputs[j].law.delay_s.unwrap_or(0.0),
+            Param::Rate(j) => m.inputs[j].law.rate_limit.unwrap_or(0.0),
+            Param::Sat(j) => m.inputs[j].law.saturation.unwrap_or(0.0),
+        }
+    }
+
+    /// Sets the value; false if it is outside the parameter's range.
+    fn set(self, m: &mut Model, v: f64) -> bool {
+        if !v.is_finite() {
+            return false;
+        }
+        let nonneg = v >= 0.0;
+        match self {
+            Param::Lin(c) => {
+                if matches!(c, Coef::Mass(_)) && v <= 0.0 {
+                    return false;
+                }
+                c.set(m, v);
+                true
+            }
+            Param::BumpGap(e) => {
+                if let Some(b) = m.elements[e].law.bump.as_mut() {
+                    b.0 = v;
+                }
+                nonneg
+            }
+            Param::RebGap(e) => {
+                if let Some(b) = m.elements[e].law.rebound.as_mut() {
+                    b.0 = v;
+                }
+                nonneg
+            }
+            Param::Backlash(e) => {
+                m.elements[e].law.backlash = Some(v);
+                nonneg
+            }
+            Param::Preload(e) => {
+                m.elements[e].law.lift_off = Some(v);
+                nonneg
+            }
+            Param::Beta(e) => {
+                if let Some(h) = m.elements[e].law.hysteresis.as_mut() {
+                    h.beta = v;
+                }
+                true
+            }
+            Param::Gamma(e) => {
+                if let Some(h) = m.elements[e].law.hysteresis.as_mut() {
+                    h.gamma = v;
+                }
+                true
+            }
+            Param::Delay(j) => {
+                m.inputs[j].law.delay_s = Some(v);
+                nonneg
+            }
+            Param::Rate(j) => {
+                m.inputs[j].law.rate_limit = Some(v);
+                v > 0.0
+            }
+            Param::Sat(j) => {
+                m.inputs[j].law.saturation = Some(v);
+                v > 0.0
+            }
+        }
+    }
+}
+
+/// The parameters of `model`'s effects that are not linear coefficients.
+fn nonlinear_params(model: &Model) -> Vec<Param> {
+    let mut out = Vec::new();
+    for (e, el) in model.elements.iter().enumerate() {
+        let l = &el.law;
+        if l.bump.is_some() {
+            out.push(Param::BumpGap(e));
+        }
+        if l.rebound.is_some() {
+            out.push(Param::RebGap(e));
+        }
+        if l.backlash.is_some() {
+            out.push(Param::Backlash(e));
+        }
+        if l.lift_off.is_some() {
+            out.push(Param::Preload(e));
+        }
+        if l.hysteresis.is_some() {
+            out.push(Param::Beta(e));
+            out.push(Param::Gamma(e));
+        }
+    }
+    for (j, i) in model.inputs.iter().enumerate() {
+        if i.law.delay_s.is_some() {
+            out.push(Param::Delay(j));
+        }
+        if i.law.rate_limit.is_some() {
+            out.push(Param::Rate(j));
+        }
+        if i.law.saturation.is_some() {
+            out.push(Param::Sat(j));
+        }
+    }
+    out
+}
+
+/// The linear coefficients recalibrated in `model` (see the module documentation).
+fn linear_free(model: &Model) -> Vec<Coef> {
+    let has_force = model.inputs.iter().any(|i| i.kind == InputKind::Force);
+    let mut free = Vec::new();
+    for i in 0..model.n() {
+        if has_force {
+            free.push(Coef::Mass(i));
+        }
+        free.push(Coef::Bias(i));
+    }
+    for (e, el) in model.elements.iter().enumerate() {
+        if el.law.k > 0.0 {
+            free.push(Coef::K(e));
+        }
+        if el.law.c > 0.0 {
+            free.push(Coef::C(e));
+        }
+    }
+    free
+}
+
+/// The coefficients of the effects that are on in `model`.
+fn effect_coefs(model: &Model) -> Vec<Coef> {
+    let mut v = Vec::new();
+    for (e, el) in model.elements.iter().enumerate() {
+        let l = &el.law;
+        if l.hysteresis.is_some() {
+            v.push(Coef::KH(e));
+        }
+        if l.k3.is_some() {
+            v.push(Coef::K3(e));
+        }
+        if l.c_abs.is_some() {
+            v.push(Coef::CAbs(e));
+        }
+        if l.c2.is_some() {
+            v.push(Coef::C2(e));
+        }
+        if l.coulomb.is_some() {
+            v.push(Coef::Fc(e));
+        }
+        if l.bump.is_some() {
+            v.push(Coef::BumpK(e));
+        }
+        if l.rebound.is_some() {
+            v.push(Coef::RebK(e));
+        }
+    }
+    v
+}
+
+/// A fitted model structure.
+#[derive(Clone)]
+struct Fit {
+    model: Model,
+    free: Vec<Coef>,
+    covariance: DMatrix<f64>,
+    sse_fit: f64,
+    sse_val: f64,
+    val_rows: usize,
+    tau: f64,
+}
+
+struct Context<'a> {
+    st: &'a States,
+    weights: Vec<f64>,
+    fit_end: usize,
+}
+
+impl Context<'_> {
+    fn is_fit(&self, t: usize) -> bool {
+        t < self.fit_end
+    }
+
+    /// Fits `free` in `model` on the fitting part (lift-off: the contact mask is updated
+    /// from the fitted law and the fit repeated).
+    fn fit(&self, mut model: Model, free: &[Coef]) -> Fit {
+        let passes = if model.elements.iter().any(|e| e.law.lift_off.is_some()) {
+            3
+        } else {
+            1
+        };
+        let mut last = None;
+        for _ in 0..passes {
+            let sys = equation::build(&model, self.st, free, &self.weights);
+            let sol = sys.solve(|t| self.is_fit(t));
+            for (c, v) in free.iter().zip(&sol.theta) {
+                c.set(&mut model, *v);
+            }
+            last = Some((sys, sol));
+        }
+        let Some((sys, sol)) = last else {
+            unreachable!("at least one pass")
+        };
+        let val = if sol.sse.is_finite() {
+            sys.residuals(&sol.theta, |t| !self.is_fit(t))
+        } else {
+            vec![f64::INFINITY]
+        };
+        let dofs = model.n();
+        Fit {
+            free: free.to_vec(),
+            covariance: sol.covariance,
+            sse_fit: sol.sse,
+            sse_val: val.iter().map(|v| v * v).sum(),
+            val_rows: val.len(),
+            tau: equation::correlation_time_rows(&val, dofs),
+            model,
+        }
+    }
+}
+
+/// A candidate: effect `kind` on element or input `target`.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    kind: EffectKind,
+    target: usize,
+}
+
+fn candidates(model: &Model, kinds: &[EffectKind]) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for &kind in kinds {
+        if kind.on_input() {
+            for (j, i) in model.inputs.iter().enumerate() {
+                if !i.law.kinds().contains(&kind) {
+                    out.push(Candidate { kind, target: j });
+                }
+            }
+            continue;
+        }
+        for (e, el) in model.elements.iter().enumerate() {
+            let l = &el.law;
+            if l.kinds().contains(&kind) {
+                continue;
+            }
+            let ok = match kind {
+                EffectKind::CubicStiffness
+                | EffectKind::Backlash
+                | EffectKind::Hysteresis
+                | EffectKind::LiftOff => l.k > 0.0,
+                EffectKind::AsymmetricDamping => l.c > 0.0,
+                _ => true,
+            };
+            if ok {
+                out.push(Candidate { kind, target: e });
+            }
+        }
+    }
+    out
+}
+
+/// Whether the fitted effect's parameters are in their physical range (a bump stop that
+/// pulls, negative friction or quadratic damping, a damper that drives, a hysteretic
+/// fraction outside [0, 1] are not that effect, whatever they fit).
+fn physical(m: &Model, cand: Candidate) -> bool {
+    if cand.kind.on_input() {
+        return true;
+    }
+    let l = &m.elements[cand.target].law;
+    match cand.kind {
+        EffectKind::CoulombFriction => l.coulomb.is_some_and(|c| c.0 > 0.0),
+        EffectKind::QuadraticDamping => l.c2.is_some_and(|c| c > 0.0),
+        EffectKind::BumpStop => {
+            l.bump.is_none_or(|b| b.1 > 0.0) && l.rebound.is_none_or(|b| b.1 > 0.0)
+        }
+        EffectKind::AsymmetricDamping => {
+            let ca = l.c_abs.unwrap_or(0.0);
+            l.c + ca >= 0.0 && l.c - ca >= 0.0
+        }
+        EffectKind::Hysteresis => {
+            let total = l.k + l.k_h;
+            total > 0.0 && l.k >= 0.0 && l.k_h > 0.0
+        }
+        EffectKind::Backlash | EffectKind::LiftOff => l.k > 0.0,
+        _ => true,
+    }
+}
+
+/// Fits candidate `cand` on top of `base` (fitted with `base_free`); returns the best
+/// fit over its grid and the number of parameters it adds.
+fn fit_candidate(ctx: &Context<'_>, base: &Fit, cand: Candidate) -> Option<(Fit, usize)> {
+    let st = ctx.st;
+    let model = &base.model;
+    let mut free = base.free.clone();
+    let (u, ud) = equation::model_inputs(model, st);
+    let sig = equation::element_signals(model, st, &u, &ud);
+    let range = st.edge..ctx.fit_end.max(st.edge + 1);
+    let e = cand.target;
+    let mut variants: Vec<Model> = Vec::new();
+    let mut added = 1;
+    let q = |s: &[f64], p: f64| signal::quantile(&s[range.clone()], p);
+    match cand.kind {
+        EffectKind::CubicStiffness => {
+            let mut m = model.clone();
+            m.elements[e].law.k3 = Some(0.0);
+            free.push(Coef::K3(e));
+            variants.push(m);
+        }
+        EffectKind::CoulombFriction => {
+            let mut m = model.clone();
+            let veps = (0.01 * signal::rms(&sig[e].v[range.clone()])).max(1e-12);
+            m.elements[e].law.coulomb = Some((0.0, veps));
+            free.push(Coef::Fc(e));
+            variants.push(m);
+        }
+        EffectKind::QuadraticDamping => {
+            let mut m = model.clone();
+            m.elements[e].law.c2 = Some(0.0);
+            free.push(Coef::C2(e));
+            variants.push(m);
+        }
+        EffectKind::AsymmetricDamping => {
+            let mut m = model.clone();
+            m.elements[e].law.c_abs = Some(0.0);
+            free.push(Coef::CAbs(e));
+            if !free.contains(&Coef::C(e)) {
+                free.push(Coef::C(e));
+            }
+            variants.push(m);
+        }
+        EffectKind::BumpStop => {
+            added = 2;
+            free.push(Coef::BumpK(e));
+            for p in [0.6, 0.75, 0.85, 0.92, 0.97, 0.99] {
+                let gap = q(&sig[e].x, p);
+                if gap > 0.0 {
+                    let mut m = model.clone();
+                    m.elements[e].law.bump = Some((gap, 0.0));
+                    variants.push(m);
+                }
+            }
+            // Extension side: a separate structure (rebound stop), same parameter count.
+            let neg: Vec<f64> = sig[e].x.iter().map(|v| -v).collect();
+            let mut reb = Vec::new();
+            for p in [0.6, 0.75, 0.85, 0.92, 0.97, 0.99] {
+                let gap = q(&neg, p);
+                if gap > 0.0 {
+                    let mut m = model.clone();
+                    m.elements[e].law.rebound = Some((gap, 0.0));
+                    reb.push(m);
+                }
+            }
+            let mut free_r = base.free.clone();
+            free_r.push(Coef::RebK(e));
+            let best_b = best_of(ctx, variants, &free);
+            let best_r = best_of(ctx, reb, &free_r);
+            let best = match (best_b, best_r) {
+                (Some(a), Some(b)) => Some(if a.sse_fit <= b.sse_fit { a } else { b }),
+                (a, b) => a.or(b),
+            };
+            return best.map(|f| (f, added));
+        }
+        EffectKind::Backlash => {
+            let absx: Vec<f64> = sig[e].x.iter().map(|v| v.abs()).collect();
+            for p in [0.03, 0.07, 0.15, 0.25, 0.35, 0.5] {
+                let b = q(&absx, p);
+                if b > 0.0 {
+                    let mut m = model.clone();
+                    m.elements[e].law.backlash = Some(b);
+                    variants.push(m);
+                }
+            }
+            if !free.contains(&Coef::K(e)) {
+                free.push(Coef::K(e));
+            }
+        }
+        EffectKind::LiftOff => {
+            // The preload must be exceeded by the element's tension somewhere.
+            let law = &model.elements[e].law;
+            let tension: Vec<f64> = (0..sig[e].x.len())
+                .map(|t| -law.force_unclipped(sig[e].x[t], sig[e].v[t], sig[e].z[t]))
+                .collect();
+            for p in [0.8, 0.9, 0.95, 0.98, 0.995] {
+                let pre = q(&tension, p);
+                if pre > 0.0 {
+                    let mut m = model.clone();
+                    m.elements[e].law.lift_off = Some(pre);
+                    variants.push(m);
+                }
+            }
+        }
+        EffectKind::Hysteresis => {
+            added = 3;
+            let sx = signal::std(&sig[e].x[range.clone()]).max(1e-300);
+            for bs in [0.3, 1.0, 3.0, 10.0, 30.0] {
+                for gr in [-1.5, -0.75, 0.0, 0.5, 1.0] {
+                    let beta = bs / sx;
+                    let mut m = model.clone();
+                    let l = &mut m.elements[e].law;
+                    l.hysteresis = Some(BoucWen {
+                        a: 1.0,
+                        beta,
+                        gamma: gr * beta,
+                        n: 1.0,
+                    });
+                    l.k_h = 0.0;
+                    variants.push(m);
+                }
+            }
+            free.push(Coef::KH(e));
+            if !free.contains(&Coef::K(e)) {
+                free.push(Coef::K(e));
+            }
+            let best = best_of(ctx, variants, &free)?;
+            // Local refinement of (ln β, γ/β) by a shrinking pattern search.
+            let refined = refine_hysteresis(ctx, best, &free, e);
+            return Some((refined, added));
+        }
+        EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => {
+            let j = cand.target;
+            let raw = &st.inputs_raw[j];
+            let r = range.clone();
+            match cand.kind {
+                EffectKind::InputDelay => {
+                    for k in [0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0] {
+                        let mut m = model.clone();
+                        m.inputs[j].law.delay_s = Some(k * st.dt);
+                        variants.push(m);
+                    }
+                }
+                EffectKind::Saturation => {
+                    let a: Vec<f64> = raw[r].iter().map(|v| v.abs()).collect();
+                    for p in [0.7, 0.8, 0.9, 0.95, 0.99] {
+                        let l = signal::quantile(&a, p);
+                        if l > 0.0 {
+                            let mut m = model.clone();
+                            m.inputs[j].law.saturation = Some(l);
+                            variants.push(m);
+                        }
+                    }
+                }
+                _ => {
+                    let d = signal::derivative(&raw[r], st.dt);
+                    let a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
+                    for p in [0.7, 0.8, 0.9, 0.95, 0.99] {
+                        let l = signal::quantile(&a, p);
+                        if l > 0.0 {
+                            let mut m = model.clone();
+                            m.inputs[j].law.rate_limit = Some(l);
+                            variants.push(m);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    best_of(ctx, variants, &free).map(|f| (f, added))
+}
+
+fn best_of(ctx: &Context<'_>, variants: Vec<Model>, free: &[Coef]) -> Option<Fit> {
+    variants
+        .into_iter()
+        .map(|m| ctx.fit(m, free))
+        .filter(|f| f.sse_fit.is_finite())
+        .min_by(|a, b| a.sse_fit.total_cmp(&b.sse_fit))
+}
+
+fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) -> Fit {
+    let Some(bw) = best.model.elements[e].law.hysteresis else {
+        return best;
+    };
+    let (mut lb, mut g) = (bw.beta.ln(), bw.gamma / bw.beta);
+    let (mut slb, mut sg) = (0.5, 0.25);
+    for _ in 0..4 {
+        let mut improved = false;
+        for (dl, dg) in [(slb, 0.0), (-slb, 0.0), (0.0, sg), (0.0, -sg)] {
+            let mut m = best.model.clone();
+            let beta = (lb + dl).exp();
+            m.elements[e].law.hysteresis = Some(BoucWen {
+                beta,
+                gamma: (g + dg) * beta,
+                ..bw
+            });
+            let f = ctx.fit(m, free);
+            if f.sse_fit < best.sse_fit {
+                best = f;
+                lb += dl;
+                g += dg;
+                improved = true;
+            }
+        }
+        if !improved {
+            slb *= 0.5;
+            sg *= 0.5;
+        }
+    }
+    best
+}
+
+/// Runs the workflow on `model` and `record` (see the module documentation).
+///
+/// # Errors
+/// Missing columns, a record too short to split, displacement outputs that do not
+/// determine every DOF (needed by the equation-error formulation this increment uses for
+/// recalibration and selection).
+pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Diagnosis> {
+    let start = std::time::Instant::now();
+    let log = |m: &str| {
+        if options.progress {
+            eprintln!("diagnose [{:7.2} s]: {m}", start.elapsed().as_secs_f64());
+        }
+    };
+    if !(options.validation_fraction > 0.0 && options.validation_fraction <= 0.9) {
+        return Err(Error::Diagnose(format!(
+            "validation_fraction must be in (0, 0.9], got {}",
+            options.validation_fraction
+        )));
+    }
+    let len = record.len();
+    for o in &model.outputs {
+        record.column(&o.column)?;
+    }
+    let fit_end = ((1.0 - options.validation_fraction) * len as f64).round() as usize;
+    let st = equation::estimate_states(model, record)?;
+    if fit_end <= st.edge + 16 * st.decimation || len - fit_end <= st.edge + 16 * st.decimation {
+        return Err(Error::Diagnose(format!(
+            "record too short for a fitting and a validation part ({len} samples)"
+        )));
+    }
+    log(&format!(
+        "states estimated, cut-off {:.2} Hz, decimation {}",
+        st.fc_hz, st.decimation
+    ));
+    // Row weights: one over each DOF's inertia-force spread.
+    let weights: Vec<f64> = (0..model.n())
+        .map(|i| {
+            let r = model.mass[i] * signal::rms(&st.qdd[i]);
+            if r > 0.0 {
+                1.0 / r
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let ctx = Context {
+        st: &st,
+        weights,
+        fit_end,
+    };
+    // Linear recalibration, starting from the model without its effects' coefficients held.
+    let free0 = {
+        let mut f = linear_free(model);
+        f.extend(effect_coefs(model));
+        f
+    };
+    let mut current = ctx.fit(model.clone(), &free0);
+    let recal_fit = current.clone();
+    log(&format!(
+        "recalibrated, validation SSE {:.4e}",
+        current.sse_val
+    ));
+    let mut named: Vec<NamedDetail> = Vec::new();
+    let mut scores = Vec::new();
+    let mut stages: Vec<(Fit, usize)> = Vec::new();
+    for round in 0..options.max_effects {
+        let n_eff = (current.val_rows as f64 / current.tau).max(2.0);
+        let mut best: Option<(f64, f64, Fit, Candidate, usize)> = None;
+        for cand in candidates(&current.model, &options.candidates) {
+            let Some((fit, added)) = fit_candidate(&ctx, &current, cand) else {
+                continue;
+            };
+            if !physical(&fit.model, cand) {
+                log(&format!(
+                    "{} on target {}: non-physical fit, skipped",
+                    cand.kind, cand.target
+                ));
+                continue;
+            }
+            let ratio = fit.sse_val / current.sse_val;
+            let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
+            let target = if cand.kind.on_input() {
+                current.model.inputs[cand.target].name.clone()
+            } else {
+                current.model.elements[cand.target].name.clone()
+            };
+            log(&format!(
+                "round {round}: {} on {target:?}: Δ = {crit:.1}, SSE x{ratio:.4}",
+                cand.kind
+            ));
+            scores.push(CandidateScore {
+                round,
+                effect: cand.kind,
+                element: target,
+                criterion: crit,
+                sse_ratio: ratio,
+                parameters_added: added,
+            });
+            if crit.is_finite() && crit < 0.0 && best.as_ref().is_none_or(|b| crit < b.0) {
+                best = Some((crit, ratio, fit, cand, added));
+            }
+        }
+        let Some((crit, ratio, fit, cand, added)) = best else {
+            break;
+        };
+        let target = if cand.kind.on_input() {
+            fit.model.inputs[cand.target].name.clone()
+        } else {
+            fit.model.elements[cand.target].name.clone()
+        };
+        named.push(NamedDetail {
+            named: NamedEffect {
+                effect: cand.kind,
+                element: target,
+                parameters: BTreeMap::new(),
+            },
+            std: BTreeMap::new(),
+            criterion: crit,
+            sse_ratio: ratio,
+        });
+        stages.push((fit.clone(), added));
+        current = fit;
+    }
+    let restrained = current.model.is_restrained() && recal_fit.model.is_restrained();
+    let basis = if restrained {
+        GapBasis::Simulation
+    } else {
+        GapBasis::EquationError
+    };
+    let mut notes = Vec::new();
+    let mut updated = current.model.clone();
+    let mut recal_model = recal_fit.model.clone();
+    // Uncertainty from the equation-error covariance.
+    let mut cov_params: Vec<Param> = current.free.iter().map(|c| Param::Lin(*c)).collect();
+    let mut cov = current.covariance.clone();
+    let inputs = prepare_inputs(model, record)?;
+    let q0: Vec<f64> = st.q.iter().map(|q| q[0]).collect();
+    let qd0: Vec<f64> = st.qd.iter().map(|q| q[0]).collect();
+    let measured: Vec<&[f64]> = model
+        .outputs
+        .iter()
+        .map(|o| record.column(&o.column))
+        .collect::<Result<_>>()?;
+    let sim_gap = |m: &Model| -> (Gap, Option<Vec<Vec<f64>>>) {
+        let inp = match prepare_inputs(m, record) {
+            Ok(i) => i,
+            Err(_) => return (Gap { nrmse: f64::NAN }, None),
+        };
+        match simulate::simulate(m, record, &inp, 0..len, Some((&q0, &qd0))) {
+            Ok(sim) => {
+                let v: Vec<f64> = measured
+                    .iter()
+                    .zip(&sim.outputs)
+                    .map(|(me, s)| signal::nrmse(&me[fit_end..], &s[fit_end..]).powi(2))
+                    .collect();
+                (
+                    Gap {
+                        nrmse: signal::mean(&v).sqrt(),
+                    },
+                    Some(sim.outputs),
+                )
+            }
+            Err(_) => (
+                Gap {
+                    nrmse: f64::INFINITY,
+                },
+                None,
+            ),
+        }
+    };
+    let ee_gap = |m: &Model| -> Gap {
+        let sys = equation::build(m, &st, &[], &ctx.weights);
+        let r = sys.residuals(&[], |t| t >= fit_end);
+        // Normalised by the spread of the measured generalised forces (the inputs').
+        let forces = equation::build(&strip(m), &st, &[], &ctx.weights);
+        let f = forces.residuals(&[], |t| t >= fit_end);
+        Gap {
+            nrmse: signal::rms(&r) / signal::std(&f).max(1e-300),
+        }
+    };
+    let (gap_before, gap_recalibrated, gap_after, sims) = if restrained {
+        if options.output_error {
+            log("output-error refinement of the recalibrated model");
+            if let Some((m, _)) = refine_output_error(
+                &recal_model,
+                &recal_fit.free,
+                record,
+                &measured,
+                fit_end,
+                (&q0, &qd0),
+            ) {
+                if sim_gap(&m).0.nrmse <= sim_gap(&recal_model).0.nrmse {
+                    recal_model = m;
+                }
+            }
+            // Each named effect must also pay off in simulation (output error is free of
+            // the errors-in-variables bias of the equation error): the same criterion on
+            // the validation part's simulated outputs, in the order the effects were named.
+            let val_res = |m: &Model| -> Option<Vec<f64>> {
+                let inp = prepare_inputs(m, record).ok()?;
+                let sim = simulate::simulate(m, record, &inp, 0..len, Some((&q0, &qd0))).ok()?;
+                let mut r = Vec::new();
+                for (me, s) in measured.iter().zip(&sim.outputs) {
+                    let sc = 1.0 / signal::std(&me[fit_end..]).max(1e-300);
+                    r.extend((fit_end..len).map(|t| (s[t] - me[t]) * sc));
+                }
+                Some(r)
+            };
+            let sse = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+            updated = recal_model.clone();
+            let mut prev = val_res(&recal_model);
+            let mut kept = 0;
+            for (k, (stage, added)) in stages.iter().enumerate() {
+                let Some(prev_r) = prev.clone() else { break };
+                log(&format!("output-error refinement with {} effect(s)", k + 1));
+                let Some((m, (params, c))) = refine_output_error(
+                    &stage.model,
+                    &stage.free,
+                    record,
+                    &measured,
+                    fit_end,
+                    (&q0, &qd0),
+                ) else {
+                    notes.push(format!(
+                        "{}: simulation diverged, not confirmed",
+                        named[k].named.effect
+                    ));
+                    break;
+                };
+                let Some(r) = val_res(&m) else { break };
+                let n_eff = (prev_r.len() as f64 / signal::correlation_time(&prev_r)).max(2.0);
+                let ratio = sse(&r) / sse(&prev_r);
+                let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
+                let what = named[k].named.effect;
+                if crit.is_finite() && crit < 0.0 {
+                    notes.push(format!(
+                        "{what}: confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1})"
+                    ));
+                    kept = k + 1;
+                    updated = m;
+                    cov_params = params;
+                    cov = c;
+                    prev = Some(r);
+                } else {
+                    notes.push(format!(
+                        "{what}: not confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1}); dropped"
+                    ));
+                    break;
+                }
+            }
+            named.truncate(kept);
+        }
+        let (b, _) = sim_gap(model);
+        let (r, sr) = sim_gap(&recal_model);
+        let (a, sa) = sim_gap(&updated);
+        (b, r, a, sr.zip(sa))
+    } else {
+        notes.push(
+            "the model is not restrained on its own (free simulation drifts): gaps are the inverse-dynamics force prediction on the validation part"
+                .into(),
+        );
+        (ee_gap(model), ee_gap(&recal_model), ee_gap(&updated), None)
+    };
+    // Named effects' parameters and uncertainties.
+    for n in &mut named {
+        let params = effect_parameters(&updated, n.named.effect, &n.named.element);
+        n.std = parameter_std(
+            &updated,
+            &cov_params,
+            &cov,
+            n.named.effect,
+            &n.named.element,
+        );
+        n.named.parameters = params;
+    }
+    // Recalibrated linear parameters.
+    let mut recalibrated = BTreeMap::new();
+    let mut recalibrated_std = BTreeMap::new();
+    for c in linear_free(model) {
+        let label = c.label(&updated);
+        let value = match c {
+            Coef::K(e) => updated.elements[e].law.stiffness_total(),
+            _ => c.get(&updated),
+        };
+        recalibrated.insert(label.clone(), value);
+        if let Some(i) = recal_fit.free.iter().position(|x| *x == c) {
+            recalibrated_std.insert(label, recal_fit.covariance[(i, i)].max(0.0).sqrt());
+        }
+    }
+    // Evidence.
+    let mut regions = Vec::new();
+    {
+        let sys = equation::build(&recal_fit.model, &st, &[], &ctx.weights);
+        let (u, ud) = equation::model_inputs(&recal_fit.model, &st);
+        let sig = equation::element_signals(&recal_fit.model, &st, &u, &ud);
+        for n in &named {
+            if n.named.effect.on_input()
+                || regions
+                    .iter()
+                    .any(|r: &RegionEvidence| r.element == n.named.element)
+            {
+                continue;
+            }
+            let Some(e) = recal_fit
+                .model
+                .elements
+                .iter()
+                .position(|x| x.name == n.named.element)
+            else {
+                continue;
+            };
+            let el = &recal_fit.model.elements[e];
+            let dof = (0..model.n())
+                .max_by(|&a, &b| {
+                    (el.a[a].abs() / model.mass[a]).total_cmp(&(el.a[b].abs() / model.mass[b]))
+                })
+                .unwrap_or(0);
+            let rows: Vec<usize> = (0..sys.rhs.len()).filter(|&r| sys.dof[r] == dof).collect();
+            let x: Vec<f64> = rows.iter().map(|&r| sig[e].x[sys.sample[r]]).collect();
+            let v: Vec<f64> = rows.iter().map(|&r| sig[e].v[sys.sample[r]]).collect();
+            let res: Vec<f64> = rows
+                .iter()
+                .map(|&r| sys.rhs[r] / ctx.weights[dof] * el.a[dof].signum())
+                .collect();
+            regions.push(evidence::region(&el.name, &x, &v, &res));
+        }
+    }
+    let mut bands = Vec::new();
+    let mut windows = Vec::new();
+    if let Some((before, after)) = &sims {
+        windows = evidence::windows(&measured, before, after, fit_end..len, record.t0, record.dt);
+        for (inp, u) in model.inputs.iter().zip(&inputs) {
+            for (o, y) in model.outputs.iter().enumerate() {
+                bands.extend(evidence::frf_bands(
+                    (&inp.column, &model.outputs[o].column),
+                    u,
+                    measured[o],
+                    &before[o],
+                    &after[o],
+                    record.dt,
+                    0.0,
+                    st.fc_hz.min(0.45 / record.dt),
+                ));
+                let _ = y;
+            }
+        }
+    }
+    Ok(Diagnosis {
+        original: model.clone(),
+        recalibrated_model: recal_model,
+        updated,
+        recalibrated,
+        recalibrated_std,
+        named,
+        candidates: scores,
+        gap_before,
+        gap_recalibrated,
+        gap_after,
+        basis,
+        fit_end,
+        cutoff_hz: st.fc_hz,
+        bands,
+        regions,
+        windows,
+        notes,
+    })
+}
+
+/// The model with every element and mass removed from the equations (only the inputs'
+/// generalised forces remain on the right-hand side).
+fn strip(m: &Model) -> Model {
+    let mut s = m.clone();
+    for e in &mut s.elements {
+        e.law = crate::effects::ElementLaw::linear(0.0, 0.0);
+    }
+    s.mass.iter_mut().for_each(|v| *v = 0.0);
+    s.bias.iter_mut().for_each(|v| *v = 0.0);
+    s
+}
+
+fn effect_parameters(m: &Model, kind: EffectKind, target: &str) -> BTreeMap<String, f64> {
+    if kind.on_input() {
+        m.inputs
+            .iter()
+            .find(|i| i.name == target)
+            .and_then(|i| i.law.parameters(kind))
+            .unwrap_or_default()
+    } else {
+        m.elements
+            .iter()
+            .find(|e| e.name == target)
+            .and_then(|e| e.law.parameters(kind))
+            .unwrap_or_default()
+    }
+}
+
+/// Standard deviations of an effect's reported parameters by the delta method over the
+/// covariance `cov` of `params`.
+fn parameter_std(
+    m: &Model,
+    params: &[Param],
+    cov: &DMatrix<f64>,
+    kind: EffectKind,
+    target: &str,
+) -> BTreeMap<String, f64> {
+    let base = effect_parameters(m, kind, target);
+    let p = params.len();
+    let mut grads: BTreeMap<String, Vec<f64>> =
+        base.keys().map(|k| (k.clone(), vec![0.0; p])).collect();
+    for (i, par) in params.iter().enumerate() {
+        let v = par.get(m);
+        let h = 1e-6 * v.abs().max(1e-12);
+        let mut mm = m.clone();
+        if !par.set(&mut mm, v + h) {
+            continue;
+        }
+        let pert = effect_parameters(&mm, kind, target);
+        for (k, g) in grads.iter_mut() {
+            g[i] = (pert.get(k).copied().unwrap_or(0.0) - base[k]) / h;
+        }
+    }
+    grads
+        .into_iter()
+        .map(|(k, g)| {
+            let gv = DVector::from_vec(g);
+            let var = (gv.transpose() * cov * &gv)[(0, 0)];
+            (k, var.max(0.0).sqrt())
+        })
+        .collect()
+}
+
+/// Levenberg–Marquardt on the simulated outputs over samples `0..fit_end`; the parameters
+/// are the linear coefficients `free` and the effects' other parameters. Returns the
+/// refined model and the parameters with their covariance (σ² (JᵀJ)⁻¹ inflated by the
+/// residual's correlation time), or `None` if the start diverges.
+fn refine_output_error(
+    model: &Model,
+    free: &[Coef],
+    record: &Record,
+    measured: &[&[f64]],
+    fit_end: usize,
+    initial: (&[f64], &[f64]),
+) -> Option<(Model, Covariance)> {
+    let mut params: Vec<Param> = free.iter().map(|c| Param::Lin(*c)).collect();
+    params.extend(nonlinear_params(model));
+    let p = params.len();
+    let scale: Vec<f64> = measured
+        .iter()
+        .map(|m| 1.0 / signal::std(&m[..fit_end]).max(1e-300))
+        .collect();
+    let residual = |m: &Model| -> Option<Vec<f64>> {
+        let inp = prepare_inputs(m, record).ok()?;
+        let sim = simulate::simulate(m, record, &inp, 0..fit_end, Some(initial)).ok()?;
+        let mut r = Vec::with_capacity(fit_end * measured.len());
+        for ((me, s), sc) in measured.iter().zip(&sim.outputs).zip(&scale) {
+            for t in 0..fit_end {
+                r.push((s[t] - me[t]) * sc);
+            }
+        }
+        Some(r)
+    };
+    let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+    let mut m = model.clone();
+    let mut r = residual(&m)?;
+    let mut c = cost(&r);
+    let mut lambda = 1e-3;
+    let mut jac = DMatrix::<f64>::zeros(r.len(), p);
+    for _iter in 0..25 {
+        // Jacobian by forward differences.
+        for (k, par) in params.iter().enumerate() {
+            let v = par.get(&m);
+            let h = 1e-5 * v.abs().max(1e-9);
+            let mut mm = m.clone();
+            let ok = par.set(&mut mm, v + h);
+            let rk = if ok { residual(&mm) } else { None };
+            match rk {
+                Some(rk) => {
+                    for (i, (a, b)) in rk.iter().zip(&r).enumerate() {
+                        jac[(i, k)] = (a - b) / h;
+                    }
+                }
+                None => {
+                    for i in 0..r.len() {
+                        jac[(i, k)] = 0.0;
+                    }
+                }
+            }
+        }
+        let jtj = jac.transpose() * &jac;
+        let jtr = jac.transpose() * DVector::from_column_slice(&r);
+        let mut improved = false;
+        for _try in 0..6 {
+            let mut a = jtj.clone();
+            for k in 0..p {
+                a[(k, k)] += lambda * jtj[(k, k)].max(1e-300);
+            }
+            let Some(step) = a.clone().cholesky().map(|ch| ch.solve(&(-&jtr))) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut mm = m.clone();
+            let ok = params
+                .iter()
+                .enumerate()
+                .all(|(k, par)| par.set(&mut mm, par.get(&m) + step[k]));
+            let trial = if ok { residual(&mm) } else { None };
+            match trial {
+                Some(rt) if cost(&rt) < c => {
+                    let rel = (c - cost(&rt)) / c;
+                    m = mm;
+                    r = rt;
+                    c = cost(&r);
+                    lambda = (lambda / 3.0).max(1e-9);
+                    improved = rel > 1e-7;
+                    break;
+                }
+                _ => lambda *= 4.0,
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    // Covariance with the columns scaled to unit norm (parameters of very different
+    // magnitudes), then unscaled.
+    let d: Vec<f64> = (0..p)
+        .map(|k| {
+            let n = jac.column(k).norm();
+            if n > 0.0 {
+                1.0 / n
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let js = DMatrix::from_fn(jac.nrows(), p, |i, k| jac[(i, k)] * d[k]);
+    let jtj = js.transpose() * &js;
+    if !jtj.iter().all(|v| v.is_finite()) {
+        return Some((m, (params, DMatrix::from_element(p, p, f64::NAN))));
+    }
+    let tau = equation::correlation_time_rows(&r, 1);
+    let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
+    let cov = jtj
+        .pseudo_inverse(1e-12)
+        .map(|inv| DMatrix::from_fn(p, p, |a, b| inv[(a, b)] * d[a] * d[b] * sigma2 * tau))
+        .unwrap_or_else(|_| DMatrix::zeros(p, p));
+    Some((m, (params, cov)))
+}

@@ -1,0 +1,666 @@
+//! The candidate effects: identifiers, parameters and the force laws they give an element
+//! (or the transformations they apply to an input).
+//!
+//! An element's force (N, positive pushing its ends apart) at compression `x` (m), rate `v`
+//! (m/s) and hysteretic state `z` (m) is evaluated by [`ElementLaw::force`]:
+//!
+//! 1. spring deflection `x_s = x − clamp(x, −b, b)` with `backlash` (half gap `b`), else `x`;
+//! 2. spring path `k x_s` — with `hysteresis` `α k x_s + (1 − α) k z` (stored as
+//!    `k_s x_s + k_h z`), `z' = A v − β |v| |z|^(n−1) z − γ v |z|^n` — plus
+//!    `cubic_stiffness` `k3 x_s³`;
+//! 3. damper path `c v` — with `asymmetric_damping` `c_bump` for `v > 0`, `c_rebound` for
+//!    `v < 0` (stored as `c v + c_abs |v|`) — plus `quadratic_damping` `c2 v |v|` and
+//!    `coulomb_friction` `F_c tanh(v / v_eps)`;
+//! 4. `bump_stop`: `k_b (x − gap)` for `x > gap` and/or `k_b (x + rebound_gap)` for
+//!    `x < −rebound_gap`;
+//! 5. `lift_off` with static preload `P` (N): the element carries `P` at `x = 0` and can only
+//!    push, so the force relative to equilibrium is `max(P + F, 0) − P`.
+//!
+//! Input effects (on a displacement or force input `u`, in the input's SI unit, applied in
+//! this order): `input_delay` `u(t − τ)`, `rate_limit` `|du/dt| <= r`, `saturation`
+//! `clamp(u, −L, L)`.
+
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The effect identifiers of issue 6 (as used in model files and reports).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffectKind {
+    /// Element can only push: parameter `preload_n` (N, static load at equilibrium, >= 0).
+    LiftOff,
+    /// Dry friction `F_c tanh(v / v_eps)`: `force_n` (N), `smoothing_velocity_m_per_s` (m/s).
+    CoulombFriction,
+    /// `k3 x_s³`: `stiffness_n_per_m3` (N/m³; > 0 hardening).
+    CubicStiffness,
+    /// End stop: `stiffness_n_per_m` (N/m) and `gap_m` (compression side, m) and/or
+    /// `rebound_gap_m` (extension side, m).
+    BumpStop,
+    /// Free play in the spring path: `half_gap_m` (m).
+    Backlash,
+    /// Pure delay of an input: `delay_s` (s).
+    InputDelay,
+    /// Rate limit of an input: `rate_per_s` (input unit per s: m/s or N/s).
+    RateLimit,
+    /// Symmetric saturation of an input: `limit` (input unit: m or N).
+    Saturation,
+    /// `c2 v |v|`: `damping_n_s2_per_m2` (N·s²/m²).
+    QuadraticDamping,
+    /// Different damping in compression and extension: `bump_n_s_per_m`,
+    /// `rebound_n_s_per_m` (N·s/m); replaces the element's linear damping.
+    AsymmetricDamping,
+    /// Bouc-Wen hysteresis in the spring path: `alpha` (-), `beta_per_m`, `gamma_per_m`
+    /// (1/m^n), optional `a` (-, default 1) and `n` (-, default 1).
+    Hysteresis,
+}
+
+impl EffectKind {
+    /// Every effect, in the issue's order.
+    pub const ALL: [EffectKind; 11] = [
+        EffectKind::LiftOff,
+        EffectKind::CoulombFriction,
+        EffectKind::CubicStiffness,
+        EffectKind::BumpStop,
+        EffectKind::Backlash,
+        EffectKind::InputDelay,
+        EffectKind::RateLimit,
+        EffectKind::Saturation,
+        EffectKind::QuadraticDamping,
+        EffectKind::AsymmetricDamping,
+        EffectKind::Hysteresis,
+    ];
+
+    /// The identifier (e.g. `"cubic_stiffness"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::LiftOff => "lift_off",
+            EffectKind::CoulombFriction => "coulomb_friction",
+            EffectKind::CubicStiffness => "cubic_stiffness",
+            EffectKind::BumpStop => "bump_stop",
+            EffectKind::Backlash => "backlash",
+            EffectKind::InputDelay => "input_delay",
+            EffectKind::RateLimit => "rate_limit",
+            EffectKind::Saturation => "saturation",
+            EffectKind::QuadraticDamping => "quadratic_damping",
+            EffectKind::AsymmetricDamping => "asymmetric_damping",
+            EffectKind::Hysteresis => "hysteresis",
+        }
+    }
+
+    /// Whether the effect attaches to an input (else to an element).
+    pub fn on_input(self) -> bool {
+        matches!(
+            self,
+            EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation
+        )
+    }
+}
+
+impl std::fmt::Display for EffectKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Bouc-Wen parameters of [`ElementLaw::hysteresis`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoucWen {
+    /// `A` (-), > 0.
+    pub a: f64,
+    /// `β` (1/m^n).
+    pub beta: f64,
+    /// `γ` (1/m^n).
+    pub gamma: f64,
+    /// `n` (-), >= 1.
+    pub n: f64,
+}
+
+impl BoucWen {
+    /// `dz/dt` (m/s) at rate `v` (m/s) and state `z` (m).
+    #[inline]
+    pub fn rate(&self, v: f64, z: f64) -> f64 {
+        let az = z.abs();
+        let azn1 = if self.n == 1.0 {
+            1.0
+        } else {
+            az.powf(self.n - 1.0)
+        };
+        self.a * v - self.beta * v.abs() * azn1 * z - self.gamma * v * azn1 * az
+    }
+}
+
+/// An element's force law in the form the fits use (coefficients that enter linearly are
+/// separate fields). See the module documentation.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct ElementLaw {
+    /// Spring coefficient `k_s` on `x_s` (N/m): the linear stiffness, or `α k` with
+    /// hysteresis.
+    pub k: f64,
+    /// Linear damping `c` (N·s/m); with asymmetric damping the mean of bump and rebound.
+    pub c: f64,
+    /// Hysteretic spring coefficient `k_h = (1 − α) k` (N/m) on `z`, with hysteresis.
+    pub k_h: f64,
+    /// Bouc-Wen law of `z`, if hysteresis is on.
+    pub hysteresis: Option<BoucWen>,
+    /// Cubic stiffness `k3` (N/m³), if on.
+    pub k3: Option<f64>,
+    /// Half the bump/rebound damping difference `c_abs` (N·s/m) on `|v|`, if asymmetric
+    /// damping is on.
+    pub c_abs: Option<f64>,
+    /// Quadratic damping `c2` (N·s²/m²), if on.
+    pub c2: Option<f64>,
+    /// Coulomb friction `(F_c (N), v_eps (m/s))`, if on.
+    pub coulomb: Option<(f64, f64)>,
+    /// Compression-side stop `(gap (m), k_b (N/m))`, if on.
+    pub bump: Option<(f64, f64)>,
+    /// Extension-side stop `(rebound gap (m), k_b (N/m))`, if on.
+    pub rebound: Option<(f64, f64)>,
+    /// Backlash half gap `b` (m), if on.
+    pub backlash: Option<f64>,
+    /// Lift-off with static preload `P` (N), if on.
+    pub lift_off: Option<f64>,
+}
+
+impl ElementLaw {
+    /// A linear element with stiffness `k` (N/m) and damping `c` (N·s/m).
+    pub fn linear(k: f64, c: f64) -> Self {
+        Self {
+            k,
+            c,
+            ..Self::default()
+        }
+    }
+
+    /// Spring deflection `x_s` (m) at compression `x` (m).
+    #[inline]
+    pub fn spring_deflection(&self, x: f64) -> f64 {
+        match self.backlash {
+            Some(b) => x - x.max(-b).min(b),
+            None => x,
+        }
+    }
+
+    /// Force (N) before lift-off at compression `x` (m), rate `v` (m/s), state `z` (m).
+    #[inline]
+    pub fn force_unclipped(&self, x: f64, v: f64, z: f64) -> f64 {
+        let xs = self.spring_deflection(x);
+        let mut f = self.k * xs + self.c * v;
+        if self.hysteresis.is_some() {
+            f += self.k_h * z;
+        }
+        if let Some(k3) = self.k3 {
+            f += k3 * xs * xs * xs;
+        }
+        if let Some(ca) = self.c_abs {
+            f += ca * v.abs();
+        }
+        if let Some(c2) = self.c2 {
+            f += c2 * v * v.abs();
+        }
+        if let Some((fc, veps)) = self.coulomb {
+            f += fc * (v / veps).tanh();
+        }
+        if let Some((gap, kb)) = self.bump {
+            f += kb * (x - gap).max(0.0);
+        }
+        if let Some((gap, kb)) = self.rebound {
+            f += kb * (x + gap).min(0.0);
+        }
+        f
+    }
+
+    /// Force (N, relative to the static equilibrium) at compression `x` (m), rate `v`
+    /// (m/s) and state `z` (m), lift-off included.
+    #[inline]
+    pub fn force(&self, x: f64, v: f64, z: f64) -> f64 {
+        let f = self.force_unclipped(x, v, z);
+        match self.lift_off {
+            Some(p) if p + f < 0.0 => -p,
+            _ => f,
+        }
+    }
+
+    /// `dz/dt` (m/s); 0 without hysteresis. Frozen inside a backlash gap.
+    #[inline]
+    pub fn state_rate(&self, x: f64, v: f64, z: f64) -> f64 {
+        match self.hysteresis {
+            Some(bw) => {
+                let vs = match self.backlash {
+                    Some(b) if x.abs() <= b => 0.0,
+                    _ => v,
+                };
+                bw.rate(vs, z)
+            }
+            None => 0.0,
+        }
+    }
+
+    /// The effects that are on.
+    pub fn kinds(&self) -> Vec<EffectKind> {
+        let mut out = Vec::new();
+        if self.lift_off.is_some() {
+            out.push(EffectKind::LiftOff);
+        }
+        if self.coulomb.is_some() {
+            out.push(EffectKind::CoulombFriction);
+        }
+        if self.k3.is_some() {
+            out.push(EffectKind::CubicStiffness);
+        }
+        if self.bump.is_some() || self.rebound.is_some() {
+            out.push(EffectKind::BumpStop);
+        }
+        if self.backlash.is_some() {
+            out.push(EffectKind::Backlash);
+        }
+        if self.c2.is_some() {
+            out.push(EffectKind::QuadraticDamping);
+        }
+        if self.c_abs.is_some() {
+            out.push(EffectKind::AsymmetricDamping);
+        }
+        if self.hysteresis.is_some() {
+            out.push(EffectKind::Hysteresis);
+        }
+        out
+    }
+
+    /// The file's (total) stiffness `k` (N/m): `k_s + k_h` with hysteresis.
+    pub fn stiffness_total(&self) -> f64 {
+        if self.hysteresis.is_some() {
+            self.k + self.k_h
+        } else {
+            self.k
+        }
+    }
+
+    /// The parameters of effect `kind` as written in model files and reports (SI names),
+    /// or `None` if it is off.
+    pub fn parameters(&self, kind: EffectKind) -> Option<BTreeMap<String, f64>> {
+        let mut p = BTreeMap::new();
+        let mut put = |k: &str, v: f64| {
+            p.insert(k.to_string(), v);
+        };
+        match kind {
+            EffectKind::LiftOff => put("preload_n", self.lift_off?),
+            EffectKind::CoulombFriction => {
+                let (fc, veps) = self.coulomb?;
+                put("force_n", fc);
+                put("smoothing_velocity_m_per_s", veps);
+            }
+            EffectKind::CubicStiffness => put("stiffness_n_per_m3", self.k3?),
+            EffectKind::BumpStop => {
+                if self.bump.is_none() && self.rebound.is_none() {
+                    return None;
+                }
+                if let Some((g, kb)) = self.bump {
+                    put("gap_m", g);
+                    put("stiffness_n_per_m", kb);
+                }
+                if let Some((g, kb)) = self.rebound {
+                    put("rebound_gap_m", g);
+                    put("stiffness_n_per_m", kb);
+                }
+            }
+            EffectKind::Backlash => put("half_gap_m", self.backlash?),
+            EffectKind::QuadraticDamping => put("damping_n_s2_per_m2", self.c2?),
+            EffectKind::AsymmetricDamping => {
+                let ca = self.c_abs?;
+                put("bump_n_s_per_m", self.c + ca);
+                put("rebound_n_s_per_m", self.c - ca);
+            }
+            EffectKind::Hysteresis => {
+                let bw = self.hysteresis?;
+                let total = self.k + self.k_h;
+                put("alpha", if total != 0.0 { self.k / total } else { 1.0 });
+                put("a", bw.a);
+                put("beta_per_m", bw.beta);
+                put("gamma_per_m", bw.gamma);
+                put("n", bw.n);
+            }
+            EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => return None,
+        }
+        Some(p)
+    }
+
+    /// Switches on effect `kind` with `parameters` (SI names, see [`EffectKind`]); the
+    /// element's file stiffness `k_total` (N/m) and damping `c` (N·s/m) are needed by
+    /// hysteresis and asymmetric damping, which replace part of the linear law.
+    ///
+    /// # Errors
+    /// Unknown, missing or out-of-range parameters, named.
+    pub fn apply(&mut self, kind: EffectKind, parameters: &BTreeMap<String, f64>) -> Result<()> {
+        let mut reader = Params::new(kind, parameters);
+        match kind {
+            EffectKind::LiftOff => {
+                let p = reader.get("preload_n")?;
+                reader.check(p >= 0.0, "preload_n", p, ">= 0")?;
+                self.lift_off = Some(p);
+            }
+            EffectKind::CoulombFriction => {
+                let fc = reader.get("force_n")?;
+                let veps = reader.opt("smoothing_velocity_m_per_s")?.unwrap_or(1e-3);
+                reader.check(veps > 0.0, "smoothing_velocity_m_per_s", veps, "> 0")?;
+                self.coulomb = Some((fc, veps));
+            }
+            EffectKind::CubicStiffness => self.k3 = Some(reader.get("stiffness_n_per_m3")?),
+            EffectKind::BumpStop => {
+                let kb = reader.get("stiffness_n_per_m")?;
+                let gap = reader.opt("gap_m")?;
+                let rgap = reader.opt("rebound_gap_m")?;
+                if gap.is_none() && rgap.is_none() {
+                    return Err(Error::Model(
+                        "bump_stop: give gap_m (compression) and/or rebound_gap_m (extension)"
+                            .into(),
+                    ));
+                }
+                if let Some(g) = gap {
+                    reader.check(g >= 0.0, "gap_m", g, ">= 0")?;
+                }
+                if let Some(g) = rgap {
+                    reader.check(g >= 0.0, "rebound_gap_m", g, ">= 0")?;
+                }
+                self.bump = gap.map(|g| (g, kb));
+                self.rebound = rgap.map(|g| (g, kb));
+            }
+            EffectKind::Backlash => {
+                let b = reader.get("half_gap_m")?;
+                reader.check(b >= 0.0, "half_gap_m", b, ">= 0")?;
+                self.backlash = Some(b);
+            }
+            EffectKind::QuadraticDamping => self.c2 = Some(reader.get("damping_n_s2_per_m2")?),
+            EffectKind::AsymmetricDamping => {
+                let cb = reader.get("bump_n_s_per_m")?;
+                let cr = reader.get("rebound_n_s_per_m")?;
+                self.c = 0.5 * (cb + cr);
+                self.c_abs = Some(0.5 * (cb - cr));
+            }
+            EffectKind::Hysteresis => {
+                let alpha = reader.get("alpha")?;
+                reader.check((0.0..=1.0).contains(&alpha), "alpha", alpha, "in [0, 1]")?;
+                let a = reader.opt("a")?.unwrap_or(1.0);
+                reader.check(a > 0.0, "a", a, "> 0")?;
+                let beta = reader.get("beta_per_m")?;
+                let gamma = reader.get("gamma_per_m")?;
+                let n = reader.opt("n")?.unwrap_or(1.0);
+                reader.check(n >= 1.0, "n", n, ">= 1")?;
+                let total = self.stiffness_total();
+                self.k = alpha * total;
+                self.k_h = (1.0 - alpha) * total;
+                self.hysteresis = Some(BoucWen { a, beta, gamma, n });
+            }
+            EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => {
+                return Err(Error::Model(format!(
+                    "{kind} attaches to an input, not an element"
+                )))
+            }
+        }
+        reader.finish()
+    }
+
+    /// Switches effect `kind` off (restoring the linear law it replaced).
+    pub fn remove(&mut self, kind: EffectKind) {
+        match kind {
+            EffectKind::LiftOff => self.lift_off = None,
+            EffectKind::CoulombFriction => self.coulomb = None,
+            EffectKind::CubicStiffness => self.k3 = None,
+            EffectKind::BumpStop => {
+                self.bump = None;
+                self.rebound = None;
+            }
+            EffectKind::Backlash => self.backlash = None,
+            EffectKind::QuadraticDamping => self.c2 = None,
+            EffectKind::AsymmetricDamping => self.c_abs = None,
+            EffectKind::Hysteresis => {
+                if self.hysteresis.take().is_some() {
+                    self.k += self.k_h;
+                    self.k_h = 0.0;
+                }
+            }
+            EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => {}
+        }
+    }
+}
+
+/// Effects on an input (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct InputLaw {
+    /// Delay `τ` (s), if on.
+    pub delay_s: Option<f64>,
+    /// Rate limit (input unit per s), if on.
+    pub rate_limit: Option<f64>,
+    /// Saturation limit (input unit), if on.
+    pub saturation: Option<f64>,
+}
+
+impl InputLaw {
+    /// The effects that are on.
+    pub fn kinds(&self) -> Vec<EffectKind> {
+        let mut out = Vec::new();
+        if self.delay_s.is_some() {
+            out.push(EffectKind::InputDelay);
+        }
+        if self.rate_limit.is_some() {
+            out.push(EffectKind::RateLimit);
+        }
+        if self.saturation.is_some() {
+            out.push(EffectKind::Saturation);
+        }
+        out
+    }
+
+    /// Parameters of effect `kind` (SI names), or `None` if off.
+    pub fn parameters(&self, kind: EffectKind) -> Option<BTreeMap<String, f64>> {
+        let (name, v) = match kind {
+            EffectKind::InputDelay => ("delay_s", self.delay_s?),
+            EffectKind::RateLimit => ("rate_per_s", self.rate_limit?),
+            EffectKind::Saturation => ("limit", self.saturation?),
+            _ => return None,
+        };
+        Some(BTreeMap::from([(name.to_string(), v)]))
+    }
+
+    /// Switches on input effect `kind` with `parameters`.
+    ///
+    /// # Errors
+    /// Unknown, missing or out-of-range parameters, or an element effect.
+    pub fn apply(&mut self, kind: EffectKind, parameters: &BTreeMap<String, f64>) -> Result<()> {
+        let mut reader = Params::new(kind, parameters);
+        match kind {
+            EffectKind::InputDelay => {
+                let d = reader.get("delay_s")?;
+                reader.check(d >= 0.0, "delay_s", d, ">= 0")?;
+                self.delay_s = Some(d);
+            }
+            EffectKind::RateLimit => {
+                let r = reader.get("rate_per_s")?;
+                reader.check(r > 0.0, "rate_per_s", r, "> 0")?;
+                self.rate_limit = Some(r);
+            }
+            EffectKind::Saturation => {
+                let l = reader.get("limit")?;
+                reader.check(l > 0.0, "limit", l, "> 0")?;
+                self.saturation = Some(l);
+            }
+            _ => {
+                return Err(Error::Model(format!(
+                    "{kind} attaches to an element, not an input"
+                )))
+            }
+        }
+        reader.finish()
+    }
+
+    /// Switches effect `kind` off.
+    pub fn remove(&mut self, kind: EffectKind) {
+        match kind {
+            EffectKind::InputDelay => self.delay_s = None,
+            EffectKind::RateLimit => self.rate_limit = None,
+            EffectKind::Saturation => self.saturation = None,
+            _ => {}
+        }
+    }
+
+    /// The input signal `u` (input unit, sampled every `dt` s) as the model sees it: delayed
+    /// (linear interpolation, the first sample held before the start), rate limited,
+    /// saturated.
+    pub fn transform(&self, u: &[f64], dt: f64) -> Vec<f64> {
+        let mut out: Vec<f64> = match self.delay_s {
+            Some(d) if d > 0.0 => {
+                let shift = d / dt;
+                (0..u.len())
+                    .map(|i| crate::signal::sample_at(u, i as f64 - shift))
+                    .collect()
+            }
+            _ => u.to_vec(),
+        };
+        if let Some(r) = self.rate_limit {
+            let step = r * dt;
+            for i in 1..out.len() {
+                let prev = out[i - 1];
+                out[i] = out[i].max(prev - step).min(prev + step);
+            }
+        }
+        if let Some(l) = self.saturation {
+            for v in &mut out {
+                *v = v.max(-l).min(l);
+            }
+        }
+        out
+    }
+}
+
+/// Reads an effect's parameter map, tracking unknown keys.
+struct Params<'a> {
+    kind: EffectKind,
+    map: &'a BTreeMap<String, f64>,
+    used: Vec<&'static str>,
+}
+
+impl<'a> Params<'a> {
+    fn new(kind: EffectKind, map: &'a BTreeMap<String, f64>) -> Self {
+        Self {
+            kind,
+            map,
+            used: Vec::new(),
+        }
+    }
+
+    fn opt(&mut self, key: &'static str) -> Result<Option<f64>> {
+        self.used.push(key);
+        match self.map.get(key) {
+            Some(v) if v.is_finite() => Ok(Some(*v)),
+            Some(v) => Err(Error::Model(format!(
+                "{}: parameter {key} must be finite, got {v}",
+                self.kind
+            ))),
+            None => Ok(None),
+        }
+    }
+
+    fn get(&mut self, key: &'static str) -> Result<f64> {
+        let given: Vec<&str> = self.map.keys().map(String::as_str).collect();
+        self.opt(key)?.ok_or_else(|| {
+            Error::Model(format!(
+                "{}: missing parameter {key} (given: {})",
+                self.kind,
+                given.join(", ")
+            ))
+        })
+    }
+
+    fn check(&self, ok: bool, key: &str, value: f64, what: &str) -> Result<()> {
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::Model(format!(
+                "{}: parameter {key} must be {what}, got {value}",
+                self.kind
+            )))
+        }
+    }
+
+    fn finish(self) -> Result<()> {
+        if let Some(k) = self.map.keys().find(|k| !self.used.contains(&k.as_str())) {
+            return Err(Error::Model(format!(
+                "{}: unknown parameter {k:?} (known: {})",
+                self.kind,
+                self.used.join(", ")
+            )));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameters_round_trip_through_apply() {
+        for kind in EffectKind::ALL.iter().copied().filter(|k| !k.on_input()) {
+            let mut law = ElementLaw::linear(1e4, 100.0);
+            let pairs: Vec<(&str, f64)> = match kind {
+                EffectKind::LiftOff => [("preload_n", 500.0)].to_vec(),
+                EffectKind::CoulombFriction => {
+                    [("force_n", 20.0), ("smoothing_velocity_m_per_s", 1e-3)].to_vec()
+                }
+                EffectKind::CubicStiffness => [("stiffness_n_per_m3", 1e9)].to_vec(),
+                EffectKind::BumpStop => [("gap_m", 0.01), ("stiffness_n_per_m", 1e5)].to_vec(),
+                EffectKind::Backlash => [("half_gap_m", 1e-3)].to_vec(),
+                EffectKind::QuadraticDamping => [("damping_n_s2_per_m2", 50.0)].to_vec(),
+                EffectKind::AsymmetricDamping => {
+                    [("bump_n_s_per_m", 80.0), ("rebound_n_s_per_m", 120.0)].to_vec()
+                }
+                EffectKind::Hysteresis => [
+                    ("alpha", 0.5),
+                    ("a", 1.0),
+                    ("beta_per_m", 800.0),
+                    ("gamma_per_m", -100.0),
+                    ("n", 1.0),
+                ]
+                .to_vec(),
+                _ => unreachable!(),
+            };
+            let params: BTreeMap<String, f64> =
+                pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+            law.apply(kind, &params).unwrap();
+            assert_eq!(law.kinds(), vec![kind]);
+            assert_eq!(law.parameters(kind).unwrap(), params, "{kind}");
+            let mut bad = params.clone();
+            bad.insert("nonsense".into(), 1.0);
+            let err = ElementLaw::linear(1e4, 100.0)
+                .apply(kind, &bad)
+                .unwrap_err();
+            assert!(err.to_string().contains("nonsense"), "{err}");
+        }
+    }
+
+    #[test]
+    fn lift_off_clips_at_minus_preload() {
+        let mut law = ElementLaw::linear(1e4, 0.0);
+        law.lift_off = Some(100.0);
+        assert_eq!(law.force(-0.005, 0.0, 0.0), -50.0);
+        assert_eq!(law.force(-0.05, 0.0, 0.0), -100.0);
+    }
+
+    #[test]
+    fn input_law_delays_limits_and_saturates() {
+        let u: Vec<f64> = (0..100).map(|i| i as f64).collect();
+        let law = InputLaw {
+            delay_s: Some(0.0025),
+            ..InputLaw::default()
+        };
+        let y = law.transform(&u, 0.001);
+        assert!((y[50] - 47.5).abs() < 1e-12);
+        let law = InputLaw {
+            rate_limit: Some(500.0),
+            saturation: Some(20.0),
+            ..InputLaw::default()
+        };
+        let y = law.transform(&u, 0.001);
+        assert!((y[10] - 5.0).abs() < 1e-12);
+        assert_eq!(y[99], 20.0);
+    }
+}

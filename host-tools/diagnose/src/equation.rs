@@ -1,0 +1,668 @@
+//! The equation-error (inverse-dynamics) formulation on measured states.
+//!
+//! With every DOF's position measured, the states `q`, `q̇`, `q̈` are estimated by a
+//! zero-phase low-pass `F` (fourth-order Butterworth, forward-backward) and five-point
+//! differences. Each DOF's equation of motion
+//!
+//! ```text
+//! m_i q̈_i + Σ_e a_ei F_e(x_e, ẋ_e, z_e) − bias_i = Σ_j t_ji f_j
+//! ```
+//!
+//! is linear in the masses, the bias, the element coefficients `k`, `c` and most effects'
+//! coefficients ([`Coef`]); the regressors are built from the estimated states, then every
+//! column and the right-hand side are filtered once more by `F` (so the linear part is
+//! filtered identically on both sides) and decimated to about five samples per cut-off
+//! period. Models that are not stable on their own (a free mass driven by a force) are
+//! handled by this formulation alone.
+//!
+//! The cut-off is set from the data: the highest frequency at which the measured
+//! displacements' spectrum stands [`SNR`] times above its noise floor
+//! ([`signal::signal_band_edge_hz`]), within [0.002, 0.4] of the sample rate.
+
+use crate::effects::BoucWen;
+use crate::model::{InputKind, Model, OutputKind, Target};
+use crate::record::Record;
+use crate::signal;
+use crate::{Error, Result};
+use nalgebra::{DMatrix, DVector};
+
+/// Signal-to-noise power ratio (-) that sets the state filter's cut-off: 100 (20 dB), a
+/// generic choice for "clearly above the noise", not tuned to any record.
+pub const SNR: f64 = 100.0;
+
+/// Estimated states of the measured record (per DOF, per sample).
+#[derive(Clone, Debug)]
+pub struct States {
+    /// Positions (m, rad).
+    pub q: Vec<Vec<f64>>,
+    /// Velocities.
+    pub qd: Vec<Vec<f64>>,
+    /// Accelerations.
+    pub qdd: Vec<Vec<f64>>,
+    /// Inputs in SI units (gain applied, no input effects), unfiltered.
+    pub inputs_raw: Vec<Vec<f64>>,
+    /// Cut-off of the filter (Hz).
+    pub fc_hz: f64,
+    /// Sample interval (s).
+    pub dt: f64,
+    /// Decimation factor of the regression.
+    pub decimation: usize,
+    /// Samples dropped at each end (filter transients).
+    pub edge: usize,
+}
+
+/// Least-squares map from the displacement outputs to the DOF positions, if the
+/// displacement outputs determine every DOF: `(matrix n × outputs, output indices)`.
+pub fn displacement_map(model: &Model) -> Option<(DMatrix<f64>, Vec<usize>)> {
+    let n = model.n();
+    let rows: Vec<(usize, Vec<f64>)> = model
+        .outputs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, o)| match (&o.target, o.kind) {
+            (Target::Motion(c), OutputKind::Displacement) => {
+                Some((i, c.iter().map(|v| v * o.gain).collect()))
+            }
+            _ => None,
+        })
+        .collect();
+    if rows.len() < n {
+        return None;
+    }
+    let c = DMatrix::from_fn(rows.len(), n, |r, j| rows[r].1[j]);
+    let ctc = c.transpose() * &c;
+    let eig = ctc.clone().symmetric_eigenvalues();
+    let max = eig.iter().cloned().fold(0.0, f64::max);
+    if !(max > 0.0 && eig.iter().all(|&v| v > 1e-10 * max)) {
+        return None;
+    }
+    let pinv = ctc.try_inverse()? * c.transpose();
+    Some((pinv, rows.into_iter().map(|r| r.0).collect()))
+}
+
+/// Estimates the states from the displacement outputs (see the module documentation).
+///
+/// # Errors
+/// The displacement outputs do not determine every DOF, or a column is missing.
+pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
+    let (pinv, idx) = displacement_map(model).ok_or_else(|| {
+        Error::Diagnose(
+            "the equation-error formulation needs displacement outputs that determine every DOF"
+                .into(),
+        )
+    })?;
+    let n = model.n();
+    let len = record.len();
+    let dt = record.dt;
+    let meas: Vec<&[f64]> = idx
+        .iter()
+        .map(|&i| record.column(&model.outputs[i].column))
+        .collect::<Result<_>>()?;
+    let mut q = vec![vec![0.0; len]; n];
+    for t in 0..len {
+        for (i, qi) in q.iter_mut().enumerate() {
+            qi[t] = meas
+                .iter()
+                .enumerate()
+                .map(|(r, m)| pinv[(i, r)] * m[t])
+                .sum();
+        }
+    }
+    let edge = q
+        .iter()
+        .map(|qi| signal::signal_band_edge_hz(qi, dt, SNR))
+        .fold(0.0, f64::max);
+    let fs = 1.0 / dt;
+    let fc_hz = edge.clamp(0.002 * fs, 0.4 * fs);
+    let qf: Vec<Vec<f64>> = q
+        .iter()
+        .map(|x| signal::lowpass_zero_phase(x, fc_hz, dt))
+        .collect();
+    let qd = qf.iter().map(|x| signal::derivative(x, dt)).collect();
+    let qdd = qf
+        .iter()
+        .map(|x| signal::second_derivative(x, dt))
+        .collect();
+    let inputs_raw = model
+        .inputs
+        .iter()
+        .map(|inp| {
+            Ok(record
+                .column(&inp.column)?
+                .iter()
+                .map(|v| v * inp.gain)
+                .collect())
+        })
+        .collect::<Result<_>>()?;
+    let decimation = ((fs / (5.0 * fc_hz)).floor() as usize).max(1);
+    let edge = ((2.0 / (fc_hz * dt)).ceil() as usize).min(len / 20);
+    Ok(States {
+        q: qf,
+        qd,
+        qdd,
+        inputs_raw,
+        fc_hz,
+        dt,
+        decimation,
+        edge,
+    })
+}
+
+/// A coefficient that enters the equations of motion linearly.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Coef {
+    /// Mass of DOF `i` (kg, kg·m²).
+    Mass(usize),
+    /// Bias (constant generalised force) of DOF `i` (N, N·m).
+    Bias(usize),
+    /// Spring coefficient `k_s` of element `e` (N/m).
+    K(usize),
+    /// Damping `c` of element `e` (N·s/m).
+    C(usize),
+    /// Hysteretic spring coefficient `k_h` of element `e` (N/m).
+    KH(usize),
+    /// Cubic stiffness `k3` of element `e` (N/m³).
+    K3(usize),
+    /// Asymmetric damping half difference `c_abs` of element `e` (N·s/m).
+    CAbs(usize),
+    /// Quadratic damping `c2` of element `e` (N·s²/m²).
+    C2(usize),
+    /// Coulomb friction force `F_c` of element `e` (N).
+    Fc(usize),
+    /// Bump-stop stiffness of element `e` (N/m).
+    BumpK(usize),
+    /// Rebound-stop stiffness of element `e` (N/m).
+    RebK(usize),
+}
+
+impl Coef {
+    /// Its value in `model`.
+    pub fn get(self, m: &Model) -> f64 {
+        let law = |e: usize| &m.elements[e].law;
+        match self {
+            Coef::Mass(i) => m.mass[i],
+            Coef::Bias(i) => m.bias[i],
+            Coef::K(e) => law(e).k,
+            Coef::C(e) => law(e).c,
+            Coef::KH(e) => law(e).k_h,
+            Coef::K3(e) => law(e).k3.unwrap_or(0.0),
+            Coef::CAbs(e) => law(e).c_abs.unwrap_or(0.0),
+            Coef::C2(e) => law(e).c2.unwrap_or(0.0),
+            Coef::Fc(e) => law(e).coulomb.map_or(0.0, |c| c.0),
+            Coef::BumpK(e) => law(e).bump.map_or(0.0, |c| c.1),
+            Coef::RebK(e) => law(e).rebound.map_or(0.0, |c| c.1),
+        }
+    }
+
+    /// Sets its value in `model` (switching the effect on where it is an effect's).
+    pub fn set(self, m: &mut Model, v: f64) {
+        match self {
+            Coef::Mass(i) => m.mass[i] = v,
+            Coef::Bias(i) => m.bias[i] = v,
+            Coef::K(e) => m.elements[e].law.k = v,
+            Coef::C(e) => m.elements[e].law.c = v,
+            Coef::KH(e) => m.elements[e].law.k_h = v,
+            Coef::K3(e) => m.elements[e].law.k3 = Some(v),
+            Coef::CAbs(e) => m.elements[e].law.c_abs = Some(v),
+            Coef::C2(e) => m.elements[e].law.c2 = Some(v),
+            Coef::Fc(e) => {
+                let l = &mut m.elements[e].law;
+                l.coulomb = Some((v, l.coulomb.map_or(1e-3, |c| c.1)));
+            }
+            Coef::BumpK(e) => {
+                let l = &mut m.elements[e].law;
+                l.bump = Some((l.bump.map_or(0.0, |c| c.0), v));
+            }
+            Coef::RebK(e) => {
+                let l = &mut m.elements[e].law;
+                l.rebound = Some((l.rebound.map_or(0.0, |c| c.0), v));
+            }
+        }
+    }
+
+    /// A readable name, e.g. `"suspension.stiffness_n_per_m"`.
+    pub fn label(self, m: &Model) -> String {
+        let el = |e: usize| m.elements[e].name.as_str();
+        match self {
+            Coef::Mass(i) => format!("{}.mass", m.dofs[i]),
+            Coef::Bias(i) => format!("{}.bias_n", m.dofs[i]),
+            Coef::K(e) => format!("{}.stiffness_n_per_m", el(e)),
+            Coef::C(e) => format!("{}.damping_n_s_per_m", el(e)),
+            Coef::KH(e) => format!("{}.hysteretic_stiffness_n_per_m", el(e)),
+            Coef::K3(e) => format!("{}.cubic_stiffness_n_per_m3", el(e)),
+            Coef::CAbs(e) => format!("{}.asymmetric_half_difference_n_s_per_m", el(e)),
+            Coef::C2(e) => format!("{}.quadratic_damping_n_s2_per_m2", el(e)),
+            Coef::Fc(e) => format!("{}.coulomb_force_n", el(e)),
+            Coef::BumpK(e) => format!("{}.bump_stop_n_per_m", el(e)),
+            Coef::RebK(e) => format!("{}.rebound_stop_n_per_m", el(e)),
+        }
+    }
+}
+
+/// Per element, over the record: compression (m), rate (m/s), hysteretic state (m).
+pub struct ElementSignals {
+    /// Compression.
+    pub x: Vec<f64>,
+    /// Compression rate.
+    pub v: Vec<f64>,
+    /// Hysteretic deflection (zeros without hysteresis).
+    pub z: Vec<f64>,
+}
+
+/// Inputs as `model` sees them (input effects applied), filtered like the states; their
+/// rates (for displacement inputs).
+pub fn model_inputs(model: &Model, st: &States) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let mut u = Vec::new();
+    let mut ud = Vec::new();
+    for (inp, raw) in model.inputs.iter().zip(&st.inputs_raw) {
+        let t = inp.law.transform(raw, st.dt);
+        let f = signal::lowpass_zero_phase(&t, st.fc_hz, st.dt);
+        ud.push(if inp.kind == InputKind::Displacement {
+            signal::derivative(&f, st.dt)
+        } else {
+            vec![0.0; f.len()]
+        });
+        u.push(f);
+    }
+    (u, ud)
+}
+
+/// Compression, rate and hysteretic state of every element along the estimated states.
+pub fn element_signals(
+    model: &Model,
+    st: &States,
+    u: &[Vec<f64>],
+    ud: &[Vec<f64>],
+) -> Vec<ElementSignals> {
+    let len = st.q.first().map_or(0, Vec::len);
+    model
+        .elements
+        .iter()
+        .map(|e| {
+            let mut x = vec![0.0; len];
+            let mut v = vec![0.0; len];
+            for (a, (q, qd)) in e.a.iter().zip(st.q.iter().zip(&st.qd)) {
+                if *a != 0.0 {
+                    for t in 0..len {
+                        x[t] += a * q[t];
+                        v[t] += a * qd[t];
+                    }
+                }
+            }
+            for (b, (w, wd)) in e.b.iter().zip(u.iter().zip(ud)) {
+                if *b != 0.0 {
+                    for t in 0..len {
+                        x[t] += b * w[t];
+                        v[t] += b * wd[t];
+                    }
+                }
+            }
+            let z = match e.law.hysteresis {
+                Some(bw) => hysteretic_state(&e.law, bw, &x, &v, st.dt),
+                None => vec![0.0; len],
+            };
+            ElementSignals { x, v, z }
+        })
+        .collect()
+}
+
+/// Integrates the Bouc-Wen state along measured `x`, `v` (4 RK2 steps per sample, `v`
+/// interpolated linearly), from `z = 0`.
+pub fn hysteretic_state(
+    law: &crate::effects::ElementLaw,
+    _bw: BoucWen,
+    x: &[f64],
+    v: &[f64],
+    dt: f64,
+) -> Vec<f64> {
+    let mut z = vec![0.0; x.len()];
+    let sub = 4;
+    let h = dt / sub as f64;
+    let mut zc = 0.0;
+    for t in 1..x.len() {
+        for s in 0..sub {
+            let f0 = s as f64 / sub as f64;
+            let fm = (s as f64 + 0.5) / sub as f64;
+            let xm = x[t - 1] + fm * (x[t] - x[t - 1]);
+            let vm = v[t - 1] + fm * (v[t] - v[t - 1]);
+            let x0 = x[t - 1] + f0 * (x[t] - x[t - 1]);
+            let v0 = v[t - 1] + f0 * (v[t] - v[t - 1]);
+            let k1 = law.state_rate(x0, v0, zc);
+            let k2 = law.state_rate(xm, vm, zc + 0.5 * h * k1);
+            zc += h * k2;
+        }
+        if !zc.is_finite() {
+            zc = 0.0;
+        }
+        z[t] = zc;
+    }
+    z
+}
+
+/// The regression of one model structure: filtered, decimated columns (one per free
+/// coefficient) and right-hand side, rows `(sample, DOF)` interleaved.
+pub struct System {
+    /// Free coefficients, one per column.
+    pub free: Vec<Coef>,
+    /// Columns (rows × free).
+    pub columns: Vec<Vec<f64>>,
+    /// Right-hand side.
+    pub rhs: Vec<f64>,
+    /// Record sample index of each row.
+    pub sample: Vec<usize>,
+    /// DOF of each row.
+    pub dof: Vec<usize>,
+}
+
+/// Builds the regression of `model` with coefficients `free` estimated (the others held at
+/// their values in `model`), row weights `weights` per DOF.
+pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> System {
+    let n = model.n();
+    let len = st.q.first().map_or(0, Vec::len);
+    let (u, ud) = model_inputs(model, st);
+    let sig = element_signals(model, st, &u, &ud);
+    // Lift-off contact masks from the current law.
+    let masks: Vec<Option<Vec<f64>>> = model
+        .elements
+        .iter()
+        .zip(&sig)
+        .map(|(e, s)| {
+            e.law.lift_off.map(|p| {
+                (0..len)
+                    .map(|t| {
+                        let f = e.law.force_unclipped(s.x[t], s.v[t], s.z[t]);
+                        if p + f > 0.0 {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+        })
+        .collect();
+    let is_free = |c: Coef| free.contains(&c);
+    let basis = |c: Coef, t: usize| -> f64 {
+        let e = match c {
+            Coef::K(e)
+            | Coef::C(e)
+            | Coef::KH(e)
+            | Coef::K3(e)
+            | Coef::CAbs(e)
+            | Coef::C2(e)
+            | Coef::Fc(e)
+            | Coef::BumpK(e)
+            | Coef::RebK(e) => e,
+            _ => return 0.0,
+        };
+        let l = &model.elements[e].law;
+        let s = &sig[e];
+        let (x, v) = (s.x[t], s.v[t]);
+        let xs = l.spring_deflection(x);
+        let b = match c {
+            Coef::K(_) => xs,
+            Coef::C(_) => v,
+            Coef::KH(_) => s.z[t],
+            Coef::K3(_) => xs * xs * xs,
+            Coef::CAbs(_) => v.abs(),
+            Coef::C2(_) => v * v.abs(),
+            Coef::Fc(_) => (v / l.coulomb.map_or(1e-3, |c| c.1)).tanh(),
+            Coef::BumpK(_) => (x - l.bump.map_or(0.0, |b| b.0)).max(0.0),
+            Coef::RebK(_) => (x + l.rebound.map_or(0.0, |b| b.0)).min(0.0),
+            _ => 0.0,
+        };
+        b * masks[e].as_ref().map_or(1.0, |m| m[t])
+    };
+    // Element coefficient lists (those that are on).
+    let elem_coefs: Vec<Vec<Coef>> = model
+        .elements
+        .iter()
+        .enumerate()
+        .map(|(e, el)| {
+            let l = &el.law;
+            let mut v = vec![Coef::K(e), Coef::C(e)];
+            if l.hysteresis.is_some() {
+                v.push(Coef::KH(e));
+            }
+            if l.k3.is_some() {
+                v.push(Coef::K3(e));
+            }
+            if l.c_abs.is_some() {
+                v.push(Coef::CAbs(e));
+            }
+            if l.c2.is_some() {
+                v.push(Coef::C2(e));
+            }
+            if l.coulomb.is_some() {
+                v.push(Coef::Fc(e));
+            }
+            if l.bump.is_some() {
+                v.push(Coef::BumpK(e));
+            }
+            if l.rebound.is_some() {
+                v.push(Coef::RebK(e));
+            }
+            v
+        })
+        .collect();
+    let d = st.decimation;
+    let keep: Vec<usize> = (st.edge..len.saturating_sub(st.edge)).step_by(d).collect();
+    let rows = keep.len() * n;
+    let mut columns = vec![vec![0.0; rows]; free.len()];
+    let mut rhs = vec![0.0; rows];
+    let mut buf = vec![0.0; len];
+    for i in 0..n {
+        let w = weights[i];
+        // Right-hand side.
+        buf.iter_mut().for_each(|v| *v = 0.0);
+        for (inp, f) in model.inputs.iter().zip(&u) {
+            if inp.kind == InputKind::Force && inp.t[i] != 0.0 {
+                for t in 0..len {
+                    buf[t] += inp.t[i] * f[t];
+                }
+            }
+        }
+        if !is_free(Coef::Bias(i)) {
+            buf.iter_mut().for_each(|v| *v += model.bias[i]);
+        }
+        if !is_free(Coef::Mass(i)) {
+            for (b, a) in buf.iter_mut().zip(&st.qdd[i]) {
+                *b -= model.mass[i] * a;
+            }
+        }
+        for (e, el) in model.elements.iter().enumerate() {
+            let a = el.a[i];
+            if a == 0.0 {
+                continue;
+            }
+            for &c in &elem_coefs[e] {
+                if !is_free(c) {
+                    let val = c.get(model);
+                    if val != 0.0 {
+                        for (t, b) in buf.iter_mut().enumerate() {
+                            *b -= a * val * basis(c, t);
+                        }
+                    }
+                }
+            }
+            if let (Some(p), Some(m)) = (el.law.lift_off, &masks[e]) {
+                for t in 0..len {
+                    buf[t] += a * p * (1.0 - m[t]);
+                }
+            }
+        }
+        let f = signal::lowpass_zero_phase(&buf, st.fc_hz, st.dt);
+        for (r, &t) in keep.iter().enumerate() {
+            rhs[r * n + i] = w * f[t];
+        }
+        // Columns.
+        for (ci, &c) in free.iter().enumerate() {
+            buf.iter_mut().for_each(|v| *v = 0.0);
+            let mut any = false;
+            match c {
+                Coef::Mass(j) if j == i => {
+                    buf.copy_from_slice(&st.qdd[i]);
+                    any = true;
+                }
+                Coef::Bias(j) if j == i => {
+                    buf.iter_mut().for_each(|v| *v = -1.0);
+                    any = true;
+                }
+                Coef::Mass(_) | Coef::Bias(_) => {}
+                Coef::K(e)
+                | Coef::C(e)
+                | Coef::KH(e)
+                | Coef::K3(e)
+                | Coef::CAbs(e)
+                | Coef::C2(e)
+                | Coef::Fc(e)
+                | Coef::BumpK(e)
+                | Coef::RebK(e) => {
+                    let a = model.elements[e].a[i];
+                    if a != 0.0 {
+                        for (t, b) in buf.iter_mut().enumerate() {
+                            *b = a * basis(c, t);
+                        }
+                        any = true;
+                    }
+                }
+            }
+            if any {
+                let f = signal::lowpass_zero_phase(&buf, st.fc_hz, st.dt);
+                for (r, &t) in keep.iter().enumerate() {
+                    columns[ci][r * n + i] = w * f[t];
+                }
+            }
+        }
+    }
+    let mut sample = Vec::with_capacity(rows);
+    let mut dof = Vec::with_capacity(rows);
+    for &t in &keep {
+        for i in 0..n {
+            sample.push(t);
+            dof.push(i);
+        }
+    }
+    System {
+        free: free.to_vec(),
+        columns,
+        rhs,
+        sample,
+        dof,
+    }
+}
+
+/// A least-squares solution on a subset of rows.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    /// Estimated coefficients (order of [`System::free`]).
+    pub theta: Vec<f64>,
+    /// Covariance of the estimate (σ² (AᵀA)⁻¹, inflated by the residual's correlation
+    /// time), same order.
+    pub covariance: DMatrix<f64>,
+    /// Sum of squared residuals on the fitted rows.
+    pub sse: f64,
+    /// Rows fitted.
+    pub rows: usize,
+}
+
+impl System {
+    /// Least squares on the rows whose sample index satisfies `use_row` (column-scaled
+    /// normal equations solved by SVD; a column that is all zero gets 0).
+    pub fn solve(&self, use_row: impl Fn(usize) -> bool) -> Solution {
+        let p = self.free.len();
+        let idx: Vec<usize> = (0..self.rhs.len())
+            .filter(|&r| use_row(self.sample[r]))
+            .collect();
+        let mut ata = DMatrix::<f64>::zeros(p, p);
+        let mut atb = DVector::<f64>::zeros(p);
+        for &r in &idx {
+            for a in 0..p {
+                let ca = self.columns[a][r];
+                if ca == 0.0 {
+                    continue;
+                }
+                atb[a] += ca * self.rhs[r];
+                for b in a..p {
+                    ata[(a, b)] += ca * self.columns[b][r];
+                }
+            }
+        }
+        for a in 0..p {
+            for b in 0..a {
+                ata[(a, b)] = ata[(b, a)];
+            }
+        }
+        if !(ata.iter().all(|v| v.is_finite()) && atb.iter().all(|v| v.is_finite())) {
+            // Overflowing regressors (e.g. an unbounded hysteretic state): no fit.
+            return Solution {
+                theta: vec![0.0; p],
+                covariance: DMatrix::from_element(p, p, f64::INFINITY),
+                sse: f64::INFINITY,
+                rows: idx.len(),
+            };
+        }
+        let scale: Vec<f64> = (0..p)
+            .map(|a| {
+                let d = ata[(a, a)];
+                if d > 0.0 {
+                    1.0 / d.sqrt()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let s = DMatrix::from_fn(p, p, |a, b| ata[(a, b)] * scale[a] * scale[b]);
+        let sb = DVector::from_fn(p, |a, _| atb[a] * scale[a]);
+        let svd = s.clone().svd(true, true);
+        let pinv = svd
+            .pseudo_inverse(1e-12)
+            .unwrap_or_else(|_| DMatrix::zeros(p, p));
+        let y = &pinv * sb;
+        let theta: Vec<f64> = (0..p).map(|a| y[a] * scale[a]).collect();
+        let res: Vec<f64> = idx.iter().map(|&r| self.residual(r, &theta)).collect();
+        let sse: f64 = res.iter().map(|v| v * v).sum();
+        let dofs = self.dof.iter().copied().max().map_or(1, |m| m + 1);
+        let tau = correlation_time_rows(&res, dofs);
+        let sigma2 = sse / (idx.len().saturating_sub(p).max(1)) as f64;
+        let covariance = DMatrix::from_fn(p, p, |a, b| {
+            pinv[(a, b)] * scale[a] * scale[b] * sigma2 * tau
+        });
+        Solution {
+            theta,
+            covariance,
+            sse,
+            rows: idx.len(),
+        }
+    }
+
+    /// Residual `rhs − A θ` of row `r`.
+    pub fn residual(&self, r: usize, theta: &[f64]) -> f64 {
+        self.rhs[r]
+            - self
+                .columns
+                .iter()
+                .zip(theta)
+                .map(|(c, t)| c[r] * t)
+                .sum::<f64>()
+    }
+
+    /// Residuals on the rows whose sample index satisfies `use_row`.
+    pub fn residuals(&self, theta: &[f64], use_row: impl Fn(usize) -> bool) -> Vec<f64> {
+        (0..self.rhs.len())
+            .filter(|&r| use_row(self.sample[r]))
+            .map(|r| self.residual(r, theta))
+            .collect()
+    }
+}
+
+/// Correlation time of interleaved residual rows (`dofs` per sample): the largest of the
+/// per-DOF correlation times (samples).
+pub fn correlation_time_rows(res: &[f64], dofs: usize) -> f64 {
+    (0..dofs.max(1))
+        .map(|i| {
+            let r: Vec<f64> = res.iter().skip(i).step_by(dofs.max(1)).copied().collect();
+            signal::correlation_time(&r)
+        })
+        .fold(1.0, f64::max)
+}

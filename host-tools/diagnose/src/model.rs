@@ -1,0 +1,622 @@
+//! The model file (TOML) and the validated [`Model`].
+//!
+//! ```toml
+//! name = "oscillator"
+//!
+//! [[dof]]                      # a generalised coordinate: a node's displacement (m) or a rotation (rad)
+//! name = "x"
+//! mass = 2.0                   # kg (kg m² with kind = "rotation")
+//!
+//! [[point]]                    # optional: a point moving with the DOFs, pos = Σ c_i q_i
+//! name = "front_axle"
+//! position = { z_b = 1.0, theta_b = -1.8 }
+//!
+//! [[element]]                  # spring-damper between two of: DOF, point, displacement input, "ground"
+//! name = "spring"
+//! upper = "x"
+//! lower = "ground"             # compression x = pos(lower) - pos(upper)
+//! stiffness_n_per_m = 5e4
+//! damping_n_s_per_m = 10.0
+//!
+//! [[input]]
+//! name = "u"
+//! kind = "force"               # or "displacement" (then usable as an element end)
+//! column = "u"
+//! at = "x"                     # force inputs: the DOF or point it pushes (positive along it)
+//!
+//! [[output]]
+//! column = "y"
+//! kind = "displacement"        # velocity, acceleration (of a DOF or point), force (of an element)
+//! of = "x"
+//!
+//! [[effect]]                   # optional: effects already in the model
+//! effect = "cubic_stiffness"
+//! element = "spring"           # element or input name
+//! parameters = { stiffness_n_per_m3 = 1e9 }
+//! ```
+//!
+//! Unknown keys are errors. `gain` (default 1) scales a column into the SI quantity the model
+//! uses (`value = gain × column`) for inputs, and the model's quantity into the column for
+//! outputs (`column = gain × value`). A DOF may carry a constant generalised force `bias_n`
+//! (N or N·m, default 0), e.g. a force offset.
+
+use crate::effects::{EffectKind, ElementLaw, InputLaw};
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The model file as written (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Model name, for reports.
+    pub name: String,
+    /// Free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// Generalised coordinates (DOFs).
+    #[serde(rename = "dof")]
+    pub dofs: Vec<DofSpec>,
+    /// Points that move with the DOFs.
+    #[serde(default, rename = "point", skip_serializing_if = "Vec::is_empty")]
+    pub points: Vec<PointSpec>,
+    /// Spring-damper elements.
+    #[serde(default, rename = "element")]
+    pub elements: Vec<ElementSpec>,
+    /// Inputs mapped to CSV columns.
+    #[serde(default, rename = "input")]
+    pub inputs: Vec<InputSpec>,
+    /// Measured outputs mapped to CSV columns.
+    #[serde(default, rename = "output")]
+    pub outputs: Vec<OutputSpec>,
+    /// Effects attached to elements or inputs.
+    #[serde(default, rename = "effect", skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<EffectSpec>,
+}
+
+/// Kind of a DOF.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DofKind {
+    /// A displacement (m); mass in kg.
+    #[default]
+    Translation,
+    /// A rotation (rad); mass is the inertia in kg·m².
+    Rotation,
+}
+
+/// A DOF with its (diagonal) mass.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DofSpec {
+    /// Name (also usable as an element end, force input point and output).
+    pub name: String,
+    /// Mass (kg) or inertia (kg·m²), > 0.
+    pub mass: f64,
+    /// Translation (default) or rotation.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub kind: DofKind,
+    /// Constant generalised force on the DOF (N or N·m), e.g. an offset; default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub bias_n: f64,
+}
+
+/// A point `pos = Σ c_i q_i` (m).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointSpec {
+    /// Name.
+    pub name: String,
+    /// Coefficient per DOF name (m/m or m/rad).
+    pub position: BTreeMap<String, f64>,
+}
+
+/// A spring-damper element.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ElementSpec {
+    /// Name.
+    pub name: String,
+    /// Upper end: DOF, point, displacement input or `ground`.
+    pub upper: String,
+    /// Lower end; compression `x = pos(lower) − pos(upper)` (m).
+    pub lower: String,
+    /// Linear stiffness `k` (N/m), >= 0, default 0.
+    #[serde(default)]
+    pub stiffness_n_per_m: f64,
+    /// Linear damping `c` (N·s/m), >= 0, default 0.
+    #[serde(default)]
+    pub damping_n_s_per_m: f64,
+}
+
+/// Kind of an input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InputKind {
+    /// A prescribed displacement (m), e.g. the road under a tyre.
+    Displacement,
+    /// A prescribed force (N) at a DOF or point.
+    Force,
+}
+
+/// An input mapped to a CSV column.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputSpec {
+    /// Name (a displacement input is usable as an element end).
+    pub name: String,
+    /// Displacement or force.
+    pub kind: InputKind,
+    /// CSV column.
+    pub column: String,
+    /// Force inputs: the DOF or point the force acts at, along its positive direction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<String>,
+    /// SI value per column unit (default 1).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub gain: f64,
+}
+
+/// Measured quantity of an output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputKind {
+    /// Displacement of a DOF or point (m).
+    Displacement,
+    /// Velocity of a DOF or point (m/s).
+    Velocity,
+    /// Acceleration of a DOF or point (m/s²).
+    Acceleration,
+    /// Force of an element (N, positive in compression).
+    Force,
+}
+
+/// A measured output mapped to a CSV column.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// CSV column.
+    pub column: String,
+    /// Measured quantity.
+    pub kind: OutputKind,
+    /// DOF or point (motion), element (force).
+    pub of: String,
+    /// Column units per SI unit (default 1).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub gain: f64,
+}
+
+/// An effect attached to an element or input.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectSpec {
+    /// Identifier.
+    pub effect: EffectKind,
+    /// Element or input name.
+    pub element: String,
+    /// Parameters (SI names, see [`EffectKind`]).
+    #[serde(default)]
+    pub parameters: BTreeMap<String, f64>,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
+}
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+fn is_default<T: Default + PartialEq>(v: &T) -> bool {
+    *v == T::default()
+}
+
+/// A validated element: compression `x = a·q + b·w` over DOFs `q` and displacement inputs
+/// `w`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Element {
+    /// Name.
+    pub name: String,
+    /// Compression per unit of each DOF (m/m, m/rad).
+    pub a: Vec<f64>,
+    /// Compression per unit of each input (m/m; 0 for force inputs).
+    pub b: Vec<f64>,
+    /// Force law.
+    pub law: ElementLaw,
+}
+
+/// A validated input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Input {
+    /// Name.
+    pub name: String,
+    /// Kind.
+    pub kind: InputKind,
+    /// CSV column.
+    pub column: String,
+    /// SI value per column unit.
+    pub gain: f64,
+    /// Force inputs: generalised force per unit force on each DOF; empty for displacement.
+    pub t: Vec<f64>,
+    /// Input effects.
+    pub law: InputLaw,
+}
+
+/// What an output measures.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Target {
+    /// A motion `c·q` (and its derivatives) with coefficients `c` per DOF.
+    Motion(Vec<f64>),
+    /// The force of element `e`.
+    Element(usize),
+}
+
+/// A validated output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Output {
+    /// CSV column.
+    pub column: String,
+    /// Quantity.
+    pub kind: OutputKind,
+    /// What it measures.
+    pub target: Target,
+    /// Column units per SI unit.
+    pub gain: f64,
+}
+
+/// A validated model: diagonal mass matrix, elements, inputs and outputs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// The file it came from (kept to write the updated model back).
+    pub file: ModelFile,
+    /// DOF names.
+    pub dofs: Vec<String>,
+    /// Mass per DOF (kg or kg·m²).
+    pub mass: Vec<f64>,
+    /// Constant generalised force per DOF (N or N·m).
+    pub bias: Vec<f64>,
+    /// Elements.
+    pub elements: Vec<Element>,
+    /// Inputs.
+    pub inputs: Vec<Input>,
+    /// Outputs.
+    pub outputs: Vec<Output>,
+}
+
+impl Model {
+    /// Parses and validates a model file's text.
+    ///
+    /// # Errors
+    /// TOML syntax, unknown keys, unknown names, non-physical values — each named.
+    pub fn from_toml(text: &str) -> Result<Self> {
+        let file: ModelFile = toml::from_str(text).map_err(|e| Error::Model(e.to_string()))?;
+        Self::new(file)
+    }
+
+    /// Reads and validates a model file.
+    ///
+    /// # Errors
+    /// As [`Model::from_toml`], or the file cannot be read.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text).map_err(|e| Error::Model(format!("{}: {e}", path.display())))
+    }
+
+    /// Validates a parsed model file.
+    ///
+    /// # Errors
+    /// Unknown names, duplicates, non-physical values — each named.
+    pub fn new(file: ModelFile) -> Result<Self> {
+        let err = |m: String| Err(Error::Model(m));
+        let n = file.dofs.len();
+        if n == 0 {
+            return err("no [[dof]]".into());
+        }
+        let mut names: Vec<String> = vec!["ground".into()];
+        let unique = |names: &mut Vec<String>, what: &str, s: &str| -> Result<()> {
+            if s.is_empty() {
+                return Err(Error::Model(format!("{what} with an empty name")));
+            }
+            if names.iter().any(|x| x == s) {
+                return Err(Error::Model(format!("{what} {s:?}: name already used")));
+            }
+            names.push(s.to_string());
+            Ok(())
+        };
+        let dofs: Vec<String> = file.dofs.iter().map(|d| d.name.clone()).collect();
+        for d in &file.dofs {
+            unique(&mut names, "dof", &d.name)?;
+            if !(d.mass.is_finite() && d.mass > 0.0) {
+                return err(format!(
+                    "dof {:?}: mass must be > 0, got {}",
+                    d.name, d.mass
+                ));
+            }
+            if !d.bias_n.is_finite() {
+                return err(format!("dof {:?}: bias_n must be finite", d.name));
+            }
+        }
+        let mut points: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for (i, d) in dofs.iter().enumerate() {
+            let mut c = vec![0.0; n];
+            c[i] = 1.0;
+            points.insert(d, c);
+        }
+        for p in &file.points {
+            unique(&mut names, "point", &p.name)?;
+            let mut c = vec![0.0; n];
+            for (dof, v) in &p.position {
+                let Some(i) = dofs.iter().position(|d| d == dof) else {
+                    return err(format!("point {:?}: unknown dof {dof:?}", p.name));
+                };
+                if !v.is_finite() {
+                    return err(format!(
+                        "point {:?}: coefficient of {dof} not finite",
+                        p.name
+                    ));
+                }
+                c[i] = *v;
+            }
+            points.insert(&p.name, c);
+        }
+        let m = file.inputs.len();
+        let mut inputs = Vec::new();
+        for inp in &file.inputs {
+            unique(&mut names, "input", &inp.name)?;
+            if !(inp.gain.is_finite() && inp.gain != 0.0) {
+                return err(format!(
+                    "input {:?}: gain must be finite, non-zero",
+                    inp.name
+                ));
+            }
+            let t = match (inp.kind, &inp.at) {
+                (InputKind::Force, Some(at)) => match points.get(at.as_str()) {
+                    Some(c) => c.clone(),
+                    None => {
+                        return err(format!(
+                            "input {:?}: `at` {at:?} is not a dof or point",
+                            inp.name
+                        ))
+                    }
+                },
+                (InputKind::Force, None) => {
+                    return err(format!("force input {:?} needs `at`", inp.name))
+                }
+                (InputKind::Displacement, Some(_)) => {
+                    return err(format!(
+                    "displacement input {:?}: `at` is for force inputs (use it as an element end)",
+                    inp.name
+                ))
+                }
+                (InputKind::Displacement, None) => Vec::new(),
+            };
+            inputs.push(Input {
+                name: inp.name.clone(),
+                kind: inp.kind,
+                column: inp.column.clone(),
+                gain: inp.gain,
+                t,
+                law: InputLaw::default(),
+            });
+        }
+        let end = |s: &str, elem: &str| -> Result<(Vec<f64>, Vec<f64>)> {
+            if s == "ground" {
+                return Ok((vec![0.0; n], vec![0.0; m]));
+            }
+            if let Some(c) = points.get(s) {
+                return Ok((c.clone(), vec![0.0; m]));
+            }
+            if let Some(j) = inputs.iter().position(|i| i.name == s) {
+                if inputs[j].kind == InputKind::Force {
+                    return Err(Error::Model(format!(
+                        "element {elem:?}: end {s:?} is a force input, not a position"
+                    )));
+                }
+                let mut b = vec![0.0; m];
+                b[j] = 1.0;
+                return Ok((vec![0.0; n], b));
+            }
+            Err(Error::Model(format!(
+                "element {elem:?}: end {s:?} is not a dof, point, displacement input or ground"
+            )))
+        };
+        let mut elements = Vec::new();
+        for e in &file.elements {
+            unique(&mut names, "element", &e.name)?;
+            for (what, v) in [
+                ("stiffness_n_per_m", e.stiffness_n_per_m),
+                ("damping_n_s_per_m", e.damping_n_s_per_m),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return err(format!(
+                        "element {:?}: {what} must be >= 0, got {v}",
+                        e.name
+                    ));
+                }
+            }
+            let (au, bu) = end(&e.upper, &e.name)?;
+            let (al, bl) = end(&e.lower, &e.name)?;
+            let a: Vec<f64> = al.iter().zip(&au).map(|(l, u)| l - u).collect();
+            let b: Vec<f64> = bl.iter().zip(&bu).map(|(l, u)| l - u).collect();
+            if a.iter().all(|v| *v == 0.0) {
+                return err(format!(
+                    "element {:?}: both ends are fixed (no DOF moves it)",
+                    e.name
+                ));
+            }
+            elements.push(Element {
+                name: e.name.clone(),
+                a,
+                b,
+                law: ElementLaw::linear(e.stiffness_n_per_m, e.damping_n_s_per_m),
+            });
+        }
+        let mut outputs = Vec::new();
+        for o in &file.outputs {
+            if !(o.gain.is_finite() && o.gain != 0.0) {
+                return err(format!(
+                    "output {:?}: gain must be finite, non-zero",
+                    o.column
+                ));
+            }
+            let target = match o.kind {
+                OutputKind::Force => match elements.iter().position(|e| e.name == o.of) {
+                    Some(i) => Target::Element(i),
+                    None => {
+                        return err(format!(
+                            "output {:?}: force of {:?}, which is not an element",
+                            o.column, o.of
+                        ))
+                    }
+                },
+                _ => match points.get(o.of.as_str()) {
+                    Some(c) => Target::Motion(c.clone()),
+                    None => {
+                        return err(format!(
+                            "output {:?}: {:?} is not a dof or point",
+                            o.column, o.of
+                        ))
+                    }
+                },
+            };
+            outputs.push(Output {
+                column: o.column.clone(),
+                kind: o.kind,
+                target,
+                gain: o.gain,
+            });
+        }
+        if outputs.is_empty() {
+            return err("no [[output]]: nothing to compare with".into());
+        }
+        let mut model = Model {
+            dofs,
+            mass: file.dofs.iter().map(|d| d.mass).collect(),
+            bias: file.dofs.iter().map(|d| d.bias_n).collect(),
+            elements,
+            inputs,
+            outputs,
+            file: file.clone(),
+        };
+        for fx in &file.effects {
+            model.add_effect(fx)?;
+        }
+        Ok(model)
+    }
+
+    /// Attaches an effect (replacing one of the same kind on the same target).
+    ///
+    /// # Errors
+    /// Unknown target or bad parameters.
+    pub fn add_effect(&mut self, fx: &EffectSpec) -> Result<()> {
+        let wrap = |e: Error, fx: &EffectSpec| match e {
+            Error::Model(m) => Error::Model(format!("effect on {:?}: {m}", fx.element)),
+            other => other,
+        };
+        if fx.effect.on_input() {
+            let Some(inp) = self.inputs.iter_mut().find(|i| i.name == fx.element) else {
+                return Err(Error::Model(format!(
+                    "effect {}: {:?} is not an input",
+                    fx.effect, fx.element
+                )));
+            };
+            inp.law
+                .apply(fx.effect, &fx.parameters)
+                .map_err(|e| wrap(e, fx))
+        } else {
+            let Some(el) = self.elements.iter_mut().find(|e| e.name == fx.element) else {
+                return Err(Error::Model(format!(
+                    "effect {}: {:?} is not an element",
+                    fx.effect, fx.element
+                )));
+            };
+            el.law.remove(fx.effect);
+            el.law
+                .apply(fx.effect, &fx.parameters)
+                .map_err(|e| wrap(e, fx))
+        }
+    }
+
+    /// Every effect that is on, as file entries.
+    pub fn effect_specs(&self) -> Vec<EffectSpec> {
+        let mut out = Vec::new();
+        for e in &self.elements {
+            for k in e.law.kinds() {
+                if let Some(p) = e.law.parameters(k) {
+                    out.push(EffectSpec {
+                        effect: k,
+                        element: e.name.clone(),
+                        parameters: p,
+                    });
+                }
+            }
+        }
+        for i in &self.inputs {
+            for k in i.law.kinds() {
+                if let Some(p) = i.law.parameters(k) {
+                    out.push(EffectSpec {
+                        effect: k,
+                        element: i.name.clone(),
+                        parameters: p,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The model file with the current parameters and effects.
+    pub fn to_file(&self) -> ModelFile {
+        let mut f = self.file.clone();
+        for (d, (m, b)) in f.dofs.iter_mut().zip(self.mass.iter().zip(&self.bias)) {
+            d.mass = *m;
+            d.bias_n = *b;
+        }
+        for (spec, e) in f.elements.iter_mut().zip(&self.elements) {
+            spec.stiffness_n_per_m = e.law.stiffness_total();
+            spec.damping_n_s_per_m = e.law.c;
+        }
+        f.effects = self.effect_specs();
+        f
+    }
+
+    /// The model file's text with the current parameters and effects.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(&self.to_file()).unwrap_or_else(|e| format!("# not serialisable: {e}\n"))
+    }
+
+    /// Number of DOFs.
+    pub fn n(&self) -> usize {
+        self.dofs.len()
+    }
+
+    /// Whether the linear stiffness matrix `Σ k_e a_e a_eᵀ` is positive definite, i.e.
+    /// every DOF is restrained and a free simulation of the model settles (with damping).
+    /// A free mass driven by a force (no spring to ground) is not.
+    pub fn is_restrained(&self) -> bool {
+        let n = self.n();
+        let mut k = nalgebra::DMatrix::<f64>::zeros(n, n);
+        for e in &self.elements {
+            let kk = e.law.stiffness_total().max(e.law.k);
+            for i in 0..n {
+                for j in 0..n {
+                    k[(i, j)] += kk * e.a[i] * e.a[j];
+                }
+            }
+        }
+        // Scale by the masses to compare DOFs of different units.
+        for i in 0..n {
+            for j in 0..n {
+                k[(i, j)] /= (self.mass[i] * self.mass[j]).sqrt();
+            }
+        }
+        let eig = k.symmetric_eigenvalues();
+        let max = eig.iter().cloned().fold(0.0, f64::max);
+        max > 0.0 && eig.iter().all(|&v| v > 1e-9 * max)
+    }
+}

@@ -1,0 +1,125 @@
+//! The model file: the paper's examples and a one-DOF oscillator are expressible, unknown
+//! keys and names are errors, the updated model writes back and reads again.
+
+use mil_diagnose::model::{OutputKind, Target};
+use mil_diagnose::simulate::{prepare_inputs, simulate};
+use mil_diagnose::{EffectKind, Model, Record};
+use std::path::PathBuf;
+
+fn example(name: &str) -> Model {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name);
+    Model::read(&p).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn every_example_reads_and_round_trips() {
+    for name in [
+        "oscillator.toml",
+        "tyre.toml",
+        "aero.toml",
+        "emps.toml",
+        "silverbox.toml",
+        "boucwen.toml",
+    ] {
+        let m = example(name);
+        let back = Model::from_toml(&m.to_toml()).unwrap();
+        assert_eq!(back.to_file(), m.to_file(), "{name}");
+    }
+}
+
+#[test]
+fn paper_examples_have_the_paper_structure() {
+    let tyre = example("tyre.toml");
+    assert_eq!(tyre.dofs, ["x_s", "x_u"]);
+    // Suspension compression = x_u - x_s; tyre compression = road - x_u.
+    assert_eq!(tyre.elements[0].a, [-1.0, 1.0]);
+    assert_eq!(tyre.elements[1].a, [0.0, -1.0]);
+    assert_eq!(tyre.elements[1].b, [1.0]);
+    assert!(tyre.is_restrained());
+    assert!(matches!(tyre.outputs[2].target, Target::Element(1)));
+    let aero = example("aero.toml");
+    // Front axle point z - l_f θ: compression road_front - (z - 1.8 θ).
+    assert_eq!(aero.elements[0].a, [-1.0, 1.8]);
+    assert_eq!(aero.elements[1].a, [-1.0, -1.4]);
+    assert_eq!(aero.inputs[2].t, [1.0, -1.8]);
+    assert!(aero.is_restrained());
+    assert!(!example("emps.toml").is_restrained());
+}
+
+#[test]
+fn unknown_keys_and_names_are_errors() {
+    let base = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/oscillator.toml"),
+    )
+    .unwrap();
+    let err = |text: &str| Model::from_toml(text).unwrap_err().to_string();
+    let e = err(&base.replace("mass = 2.0", "mass = 2.0\nmas = 1.0"));
+    assert!(e.contains("mas"), "{e}");
+    let e = err(&base.replace("lower = \"ground\"", "lower = \"floor\""));
+    assert!(e.contains("floor"), "{e}");
+    let e = err(&base.replace("mass = 2.0", "mass = -2.0"));
+    assert!(e.contains("mass must be > 0"), "{e}");
+    let with_effect = format!(
+        "{base}\n[[effect]]\neffect = \"cubic_stiffness\"\nelement = \"spring\"\nparameters = {{ stifness = 1.0 }}\n"
+    );
+    let e = err(&with_effect);
+    assert!(e.contains("stifness"), "{e}");
+    let e = err(&base.replace("kind = \"displacement\"", "kind = \"strain\""));
+    assert!(e.contains("strain"), "{e}");
+}
+
+#[test]
+fn effects_in_the_file_are_simulated() {
+    // The tyre with lift-off: a road bump that throws the wheel off the road gives a tyre
+    // force that never drops below minus the static load.
+    let text = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/tyre.toml"),
+    )
+    .unwrap();
+    let preload = 170.0 * 9.81;
+    let m = Model::from_toml(&format!(
+        "{text}\n[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\nparameters = {{ preload_n = {preload} }}\n"
+    ))
+    .unwrap();
+    assert_eq!(m.effect_specs()[0].effect, EffectKind::LiftOff);
+    let dt = 1e-3;
+    let n = 2000;
+    let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+    // A 5 cm step down of the road at 0.5 s.
+    let road: Vec<f64> = t
+        .iter()
+        .map(|&t| if t > 0.5 { -0.05 } else { 0.0 })
+        .collect();
+    let zeros = vec![0.0; n];
+    let rec = Record::new(
+        &t,
+        vec![
+            "road".into(),
+            "body".into(),
+            "hub".into(),
+            "tyre_force".into(),
+        ],
+        vec![road, zeros.clone(), zeros.clone(), zeros],
+    )
+    .unwrap();
+    let inputs = prepare_inputs(&m, &rec).unwrap();
+    let sim = simulate(&m, &rec, &inputs, 0..n, None).unwrap();
+    let force = &sim.outputs[2];
+    assert_eq!(m.outputs[2].kind, OutputKind::Force);
+    let min = force.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!((min + preload).abs() < 1e-6, "min tyre force {min}");
+    // Without lift-off the tyre pulls the wheel down far harder.
+    let linear = example("tyre.toml");
+    let sim = simulate(
+        &linear,
+        &rec,
+        &prepare_inputs(&linear, &rec).unwrap(),
+        0..n,
+        None,
+    )
+    .unwrap();
+    let min_linear = sim.outputs[2].iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(min_linear < -2.0 * preload, "{min_linear}");
+}
