@@ -47,7 +47,8 @@ pub struct Options {
     pub candidates: Vec<EffectKind>,
     /// Refine by output error (simulation) when the model is restrained; default true.
     pub output_error: bool,
-    /// Print progress lines to stderr; default false.
+    /// Print progress lines to stderr (by [`diagnose`]; [`diagnose_with_progress`] reports
+    /// to its callback instead); default false.
     pub progress: bool,
 }
 
@@ -796,7 +797,8 @@ fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) 
     best
 }
 
-/// Runs the workflow on `model` and `record` (see the module documentation).
+/// Runs the workflow on `model` and `record` (see the module documentation); with
+/// `options.progress` it prints progress lines to stderr.
 ///
 /// # Errors
 /// Missing columns, a record too short to split, displacement outputs that do not
@@ -804,11 +806,27 @@ fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) 
 /// recalibration and selection).
 pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Diagnosis> {
     let start = std::time::Instant::now();
-    let log = |m: &str| {
+    diagnose_with_progress(model, record, options, &|_, m: &str| {
         if options.progress {
             eprintln!("diagnose [{:7.2} s]: {m}", start.elapsed().as_secs_f64());
         }
-    };
+    })
+}
+
+/// [`diagnose`], reporting its progress to `progress(fraction, message)` instead of stderr
+/// (`options.progress` is ignored): `fraction` is a rough share of the work done, from 0 to
+/// 1, never decreasing (by phase: state estimate, recalibration, candidates of each
+/// selection round, output-error refinements, evidence); `message` says what was done.
+///
+/// # Errors
+/// As [`diagnose`].
+pub fn diagnose_with_progress(
+    model: &Model,
+    record: &Record,
+    options: &Options,
+    progress: &dyn Fn(f64, &str),
+) -> Result<Diagnosis> {
+    let log = |f: f64, m: &str| progress(f.clamp(0.0, 1.0), m);
     if !(options.validation_fraction > 0.0 && options.validation_fraction <= 0.9) {
         return Err(Error::Diagnose(format!(
             "validation_fraction must be in (0, 0.9], got {}",
@@ -826,10 +844,13 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
             "record too short for a fitting and a validation part ({len} samples)"
         )));
     }
-    log(&format!(
-        "states estimated, cut-off {:.2} Hz, decimation {}",
-        st.fc_hz, st.decimation
-    ));
+    log(
+        0.05,
+        &format!(
+            "states estimated, cut-off {:.2} Hz, decimation {}",
+            st.fc_hz, st.decimation
+        ),
+    );
     // Row weights: one over each DOF's inertia-force spread.
     let weights: Vec<f64> = (0..model.n())
         .map(|i| {
@@ -854,25 +875,34 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
     };
     let mut current = ctx.fit(model.clone(), &free0);
     let recal_fit = current.clone();
-    log(&format!(
-        "recalibrated, validation SSE {:.4e}",
-        current.sse_val
-    ));
+    log(
+        0.1,
+        &format!("recalibrated, validation SSE {:.4e}", current.sse_val),
+    );
     let mut named: Vec<NamedDetail> = Vec::new();
     let mut scores = Vec::new();
     let mut stages: Vec<(Fit, usize)> = Vec::new();
     for round in 0..options.max_effects {
         let n_eff = (current.val_rows as f64 / current.tau).max(2.0);
         let mut best: Option<(f64, f64, Fit, Candidate, usize)> = None;
-        for cand in candidates(&current.model, &options.candidates) {
+        let cands = candidates(&current.model, &options.candidates);
+        let n_cands = cands.len().max(1) as f64;
+        for (i, cand) in cands.into_iter().enumerate() {
+            // Selection rounds share 0.1..0.6 of the work; later rounds may not happen.
+            let done = 0.1
+                + 0.5 * (round as f64 + (i + 1) as f64 / n_cands)
+                    / options.max_effects.max(1) as f64;
             let Some((fit, added)) = fit_candidate(&ctx, &current, cand) else {
                 continue;
             };
             if !physical(&fit.model, cand) {
-                log(&format!(
-                    "{} on target {}: non-physical fit, skipped",
-                    cand.kind, cand.target
-                ));
+                log(
+                    done,
+                    &format!(
+                        "{} on target {}: non-physical fit, skipped",
+                        cand.kind, cand.target
+                    ),
+                );
                 continue;
             }
             let ratio = fit.sse_val / current.sse_val;
@@ -882,10 +912,13 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
             } else {
                 current.model.elements[cand.target].name.clone()
             };
-            log(&format!(
-                "round {round}: {} on {target:?}: Δ = {crit:.1}, SSE x{ratio:.4}",
-                cand.kind
-            ));
+            log(
+                done,
+                &format!(
+                    "round {round}: {} on {target:?}: Δ = {crit:.1}, SSE x{ratio:.4}",
+                    cand.kind
+                ),
+            );
             scores.push(CandidateScore {
                 round,
                 effect: cand.kind,
@@ -978,7 +1011,7 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
     };
     let (gap_before, gap_recalibrated, gap_after, sims) = if restrained {
         if options.output_error {
-            log("output-error refinement of the recalibrated model");
+            log(0.6, "output-error refinement of the recalibrated model");
             if let Some((m, _)) = refine_output_error(
                 &recal_model,
                 &recal_fit.free,
@@ -1010,7 +1043,10 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
             let mut kept = 0;
             for (k, (stage, added)) in stages.iter().enumerate() {
                 let Some(prev_r) = prev.clone() else { break };
-                log(&format!("output-error refinement with {} effect(s)", k + 1));
+                log(
+                    0.6 + 0.35 * (k + 1) as f64 / (stages.len() + 1) as f64,
+                    &format!("output-error refinement with {} effect(s)", k + 1),
+                );
                 let Some((m, (params, c))) = refine_output_error(
                     &stage.model,
                     &stage.free,
@@ -1086,6 +1122,10 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
         }
     }
     // Evidence.
+    log(
+        0.95,
+        "evidence: operating regions, frequency bands, time windows",
+    );
     let mut regions = Vec::new();
     {
         let sys = equation::build(&recal_fit.model, &st, &[], &ctx.weights);
@@ -1143,6 +1183,7 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
             }
         }
     }
+    log(1.0, "done");
     Ok(Diagnosis {
         original: model.clone(),
         recalibrated_model: recal_model,

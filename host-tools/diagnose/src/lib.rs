@@ -28,7 +28,9 @@ pub mod record;
 pub mod signal;
 pub mod simulate;
 
-pub use diagnose::{diagnose, Diagnosis, Gap, JsonReport, NamedEffect, Options};
+pub use diagnose::{
+    diagnose, diagnose_with_progress, Diagnosis, Gap, JsonReport, NamedEffect, Options,
+};
 pub use effects::EffectKind;
 pub use model::{Model, ModelFile};
 pub use record::Record;

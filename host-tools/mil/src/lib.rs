@@ -6,10 +6,14 @@
 //! (`mil-rig`) and the emulated system alongside; `mil run` ([`mod@run`]) drives it open-loop
 //! on a rigid rig (measured positions zero), so its demand is the force the numerical model
 //! asks of the actuators for the given road and speed.
+//!
+//! `mil diagnose` ([`mod@diagnose`]) runs the discrepancy workflow of `mil-diagnose` on a model
+//! file and a measured record and writes the updated model, the report and the plots.
 
 pub mod analyze;
 pub mod config;
 pub mod design_filter;
+pub mod diagnose;
 pub mod identify;
 pub mod plot;
 pub mod run;

@@ -118,6 +118,25 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Find where a lumped model and a measured record disagree: recalibrate the model's
+    /// linear parameters, name the missing physical effect(s), fit them, and write the
+    /// updated model, a report (JSON) and plots (residual before/after, restoring force,
+    /// FRF overlay). Examples: host-tools/diagnose/examples/ with host-tools/diagnose/data/.
+    Diagnose {
+        /// Model file (TOML): DOFs, elements, inputs and outputs mapped to CSV columns.
+        #[arg(long)]
+        model: PathBuf,
+        /// Measured record (CSV with a header, `time` first, uniform, SI units).
+        #[arg(long)]
+        data: PathBuf,
+        /// Output folder for the updated model, the report and the plots.
+        #[arg(long, default_value = "out/diagnose")]
+        out: PathBuf,
+        /// Print one JSON object (named_effects, recalibrated, gap_before, gap_after,
+        /// updated_model) instead of the summary.
+        #[arg(long)]
+        json: bool,
+    },
     /// Validate a run configuration and report the first problem.
     Check {
         /// Run configuration (TOML).
@@ -290,6 +309,35 @@ fn main() -> Result<()> {
                 for p in &plots {
                     println!("plot:           {}", p.display());
                 }
+            }
+            Ok(())
+        }
+        Command::Diagnose {
+            model,
+            data,
+            out,
+            json,
+        } => {
+            let bar = if json {
+                ProgressBar::hidden()
+            } else {
+                ProgressBar::new(1000).with_style(
+                    ProgressStyle::with_template("[{bar:30}] {percent:>3}% {elapsed} {wide_msg}")
+                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                )
+            };
+            bar.set_message("estimating states");
+            let request = mil::diagnose::DiagnoseRequest { model, data, out };
+            let result = mil::diagnose::run_diagnose(&request, &|f, m| {
+                bar.set_position((f * 1000.0) as u64);
+                bar.set_message(m.to_string());
+            });
+            bar.finish_and_clear();
+            let result = result?;
+            if json {
+                println!("{}", serde_json::to_string(&result.json_report())?);
+            } else {
+                print!("{}", result.table());
             }
             Ok(())
         }
