@@ -19,7 +19,11 @@
 //!    threshold depends on the record.
 //! 5. **Output-error refinement** (models restrained on their own): Levenberg–Marquardt on the
 //!    simulated outputs over the fitting part, all named effects' parameters and the linear
-//!    ones free; kept if it lowers the validation error.
+//!    ones free; kept if it lowers the validation error. Each named effect must also pass
+//!    the selection criterion on the simulated outputs (against the previous stage; if that
+//!    stage's simulation diverges, a finite simulation confirms it), and then a backward
+//!    elimination removes, one at a time, any effect whose removal (the rest refined by
+//!    output error from the final parameters) does not worsen the criterion.
 //! 6. **Gap**: NRMSE of the simulated outputs on the validation part (restrained models),
 //!    else of the inverse-dynamics force prediction (equation-error residual over the
 //!    right-hand side's spread).
@@ -1042,47 +1046,123 @@ pub fn diagnose_with_progress(
             let mut prev = val_res(&recal_model);
             let mut kept = 0;
             for (k, (stage, added)) in stages.iter().enumerate() {
-                let Some(prev_r) = prev.clone() else { break };
+                // A previous model whose simulation diverges (e.g. a linear recalibration
+                // that absorbed an input delay into a negative damping) gives no ratio: the
+                // stage is then confirmed if its own simulation stays finite.
+                let prev_r = prev.clone().filter(|r| sse(r).is_finite());
                 log(
                     0.6 + 0.35 * (k + 1) as f64 / (stages.len() + 1) as f64,
                     &format!("output-error refinement with {} effect(s)", k + 1),
                 );
-                let Some((m, (params, c))) = refine_output_error(
+                let what = named[k].named.effect;
+                let refined = refine_output_error(
                     &stage.model,
                     &stage.free,
                     record,
                     &measured,
                     fit_end,
                     (&q0, &qd0),
-                ) else {
-                    notes.push(format!(
-                        "{}: simulation diverged, not confirmed",
-                        named[k].named.effect
-                    ));
+                );
+                let Some((m, (params, c), r)) = refined.and_then(|(m, pc)| {
+                    let r = val_res(&m).filter(|r| sse(r).is_finite())?;
+                    Some((m, pc, r))
+                }) else {
+                    notes.push(format!("{what}: simulation diverged, not confirmed"));
                     break;
                 };
-                let Some(r) = val_res(&m) else { break };
-                let n_eff = (prev_r.len() as f64 / signal::correlation_time(&prev_r)).max(2.0);
-                let ratio = sse(&r) / sse(&prev_r);
-                let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
-                let what = named[k].named.effect;
-                if crit.is_finite() && crit < 0.0 {
-                    notes.push(format!(
-                        "{what}: confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1})"
-                    ));
-                    kept = k + 1;
-                    updated = m;
-                    cov_params = params;
-                    cov = c;
-                    prev = Some(r);
-                } else {
-                    notes.push(format!(
-                        "{what}: not confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1}); dropped"
-                    ));
+                let confirmed = match &prev_r {
+                    Some(prev_r) => {
+                        let n_eff =
+                            (prev_r.len() as f64 / signal::correlation_time(prev_r)).max(2.0);
+                        let ratio = sse(&r) / sse(prev_r);
+                        let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
+                        if crit.is_finite() && crit < 0.0 {
+                            notes.push(format!(
+                                "{what}: confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1})"
+                            ));
+                            true
+                        } else {
+                            notes.push(format!(
+                                "{what}: not confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1}); dropped"
+                            ));
+                            false
+                        }
+                    }
+                    None => {
+                        notes.push(format!(
+                            "{what}: confirmed by simulation (the model without it diverges, with it the simulation stays finite)"
+                        ));
+                        true
+                    }
+                };
+                if !confirmed {
                     break;
                 }
+                kept = k + 1;
+                updated = m;
+                cov_params = params;
+                cov = c;
+                prev = Some(r);
             }
             named.truncate(kept);
+            // Backward elimination in simulation: each kept effect is removed from the
+            // final model in turn and the rest refined by output error from the final
+            // parameters; an effect is dropped when the model without it, equally refined,
+            // is as good by the same criterion (a later effect may explain what an earlier
+            // one stood in for, and refining a larger model may converge further for
+            // reasons other than the added effect).
+            if kept > 0 {
+                let mut free_now = stages[kept - 1].0.free.clone();
+                let mut added_of: Vec<usize> = stages[..kept].iter().map(|s| s.1).collect();
+                for i in (0..named.len()).rev() {
+                    let Some(r_with) = prev.clone() else { break };
+                    let what = named[i].named.effect;
+                    let target = named[i].named.element.clone();
+                    let mut m_wo = updated.clone();
+                    if what.on_input() {
+                        if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
+                            inp.law.remove(what);
+                        }
+                    } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target) {
+                        el.law.remove(what);
+                    }
+                    let coefs_with = effect_coefs(&updated);
+                    let coefs_wo = effect_coefs(&m_wo);
+                    let free_wo: Vec<Coef> = free_now
+                        .iter()
+                        .copied()
+                        .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
+                        .collect();
+                    let Some((m2, pc, r_wo)) = refine_output_error(
+                        &m_wo,
+                        &free_wo,
+                        record,
+                        &measured,
+                        fit_end,
+                        (&q0, &qd0),
+                    )
+                    .and_then(|(m2, pc)| {
+                        let r = val_res(&m2).filter(|r| sse(r).is_finite())?;
+                        Some((m2, pc, r))
+                    }) else {
+                        continue;
+                    };
+                    let n_eff = (r_wo.len() as f64 / signal::correlation_time(&r_wo)).max(2.0);
+                    let ratio = sse(&r_with) / sse(&r_wo);
+                    let crit = n_eff * ratio.ln() + added_of[i] as f64 * n_eff.ln();
+                    if !(crit.is_finite() && crit < 0.0) {
+                        notes.push(format!(
+                            "{what}: dropped, the other effects refined without it do as well in simulation (validation SSE x{ratio:.3} with it, criterion {crit:.1})"
+                        ));
+                        named.remove(i);
+                        added_of.remove(i);
+                        updated = m2;
+                        free_now = free_wo;
+                        (cov_params, cov) = pc;
+                        prev = Some(r_wo);
+                    }
+                }
+            }
         }
         let (b, _) = sim_gap(model);
         let (r, sr) = sim_gap(&recal_model);

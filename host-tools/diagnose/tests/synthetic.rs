@@ -4,57 +4,17 @@
 //! through an ideal interface, with measurement noise on displacement and force. The
 //! model handed to the workflow is linear with every parameter 10–15 % off.
 
-use mil_diagnose::{diagnose, EffectKind, Model, Options, Record};
-use mil_rig::effects::{CoulombFriction, CubicStiffness, Effects, Element, QuadraticDamping};
-use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
+mod common;
+
+use common::*;
+use mil_diagnose::{EffectKind, Model, Record};
+use mil_rig::effects::{CoulombFriction, CubicStiffness, Effects, QuadraticDamping};
 use mil_rig::rng::SplitMix64;
-use mil_rig::specimen::{PlacedElement, Specimen};
-
-const MASS: f64 = 2.0;
-const K: f64 = 2.0e4;
-const C: f64 = 20.0;
-const FS: f64 = 1000.0;
-const DURATION_S: f64 = 16.0;
-const FORCE_RMS: f64 = 20.0;
-
-/// The prescribed force is the specimen's pseudo road input 0 (N), passed through.
-struct ForceFromInput;
-
-impl IdealInterface for ForceFromInput {
-    fn forces(&self, _y: &[f64], _yd: &[f64], road: &[f64], _rr: &[f64], forces: &mut [f64]) {
-        forces[0] = road[0];
-    }
-    fn affine(&self) -> Option<AffineInterface> {
-        Some(AffineInterface {
-            offset_n: vec![0.0],
-            position_n_per_m: vec![vec![0.0]],
-            velocity_n_s_per_m: vec![vec![0.0]],
-            road_n_per_m: vec![vec![1.0]],
-            road_rate_n_s_per_m: vec![vec![0.0]],
-            lower_bound_n: vec![f64::NEG_INFINITY],
-        })
-    }
-}
 
 /// Simulates the oscillator with `effects`; returns the record (time, force, x) with
 /// displacement noise `x_noise` (m rms) and force noise `f_noise` (N rms).
 fn make_record(effects: Effects, seed: u64, x_noise: f64, f_noise: f64) -> Record {
-    let specimen = Specimen {
-        dofs: vec!["x".into()],
-        mass: vec![vec![MASS]],
-        static_force: vec![0.0],
-        elements: vec![PlacedElement {
-            name: "spring".into(),
-            element: Element::linear(K, C).with_effects(effects),
-            // Compression: the mass moving down towards the ground.
-            dof_coefficients: vec![-1.0],
-            input_coefficients: vec![0.0],
-        }],
-        inputs: vec!["force".into()],
-        attachments: vec![vec![1.0]],
-    };
-    let mut plant =
-        Plant::with_ideal_interface(specimen, Box::new(ForceFromInput), 1e-4).expect("plant");
+    let mut plant = oscillator_plant(effects);
     let force = mil_identify::band_limited_noise(0.5, 60.0, DURATION_S, FS, FORCE_RMS, false, seed);
     let dt = 1.0 / FS;
     let mut rng = SplitMix64::new(seed ^ 0xABCD);
@@ -69,60 +29,14 @@ fn make_record(effects: Effects, seed: u64, x_noise: f64, f_noise: f64) -> Recor
     Record::new(&t, vec!["force".into(), "x".into()], vec![f, x]).expect("record")
 }
 
-/// The engineer's model: linear, every parameter off (mass +10 %, stiffness −12 %,
-/// damping +15 %).
-fn model() -> Model {
-    Model::from_toml(&format!(
-        r#"
-name = "oscillator"
-[[dof]]
-name = "x"
-mass = {m}
-[[element]]
-name = "spring"
-upper = "x"
-lower = "ground"
-stiffness_n_per_m = {k}
-damping_n_s_per_m = {c}
-[[input]]
-name = "force"
-kind = "force"
-column = "force"
-at = "x"
-[[output]]
-column = "x"
-kind = "displacement"
-of = "x"
-"#,
-        m = MASS * 1.10,
-        k = K * 0.88,
-        c = C * 1.15
-    ))
-    .expect("model")
-}
-
-fn run(name: &str, effects: Effects, seed: u64) -> mil_diagnose::Diagnosis {
-    // Noise: about 1 % of the displacement's spread, 0.5 % of the force's.
-    let record = make_record(effects, seed, 1e-5, 0.1);
-    let options = Options {
-        progress: std::env::var_os("DIAGNOSE_PROGRESS").is_some(),
-        ..Options::default()
-    };
-    let t = std::time::Instant::now();
-    let d = diagnose(&model(), &record, &options).expect("diagnose");
-    println!("{name}: diagnosed in {:.2} s", t.elapsed().as_secs_f64());
-    println!("--- {name} ---\n{}", d.summary());
-    for c in d.candidates.iter().filter(|c| c.round == 0) {
-        println!(
-            "  candidate {} on {}: criterion {:.1}, SSE x{:.4}",
-            c.effect, c.element, c.criterion, c.sse_ratio
-        );
-    }
-    d
-}
-
-fn names(d: &mil_diagnose::Diagnosis) -> Vec<EffectKind> {
-    d.named.iter().map(|n| n.named.effect).collect()
+/// The oscillator with `effects` on the engineer's model (noise: about 1 % of the
+/// displacement's spread, 0.5 % of the force's).
+fn run_oscillator(name: &str, effects: Effects, seed: u64) -> mil_diagnose::Diagnosis {
+    run(
+        name,
+        &oscillator_model(),
+        &make_record(effects, seed, 1e-5, 0.1),
+    )
 }
 
 fn param(d: &mil_diagnose::Diagnosis, key: &str) -> f64 {
@@ -146,7 +60,7 @@ fn check_linear(d: &mil_diagnose::Diagnosis, tol: f64) {
 
 #[test]
 fn linear_parameters_off_only_nothing_named_parameters_corrected() {
-    let d = run("linear, parameters off", Effects::default(), 1);
+    let d = run_oscillator("linear, parameters off", Effects::default(), 1);
     assert!(d.named.is_empty(), "named {:?}", names(&d));
     // Corrected within 3 % (stiffness, mass) and 10 % (damping).
     let r = &d.recalibrated;
@@ -166,7 +80,7 @@ fn linear_parameters_off_only_nothing_named_parameters_corrected() {
 #[test]
 fn hidden_cubic_stiffness_is_named() {
     let k3 = 6.0e9;
-    let d = run(
+    let d = run_oscillator(
         "cubic stiffness",
         Effects {
             cubic_stiffness: Some(CubicStiffness {
@@ -189,7 +103,7 @@ fn hidden_cubic_stiffness_is_named() {
 #[test]
 fn hidden_coulomb_friction_is_named() {
     let fc = 2.0;
-    let d = run(
+    let d = run_oscillator(
         "Coulomb friction",
         Effects {
             coulomb_friction: Some(CoulombFriction {
@@ -210,7 +124,7 @@ fn hidden_coulomb_friction_is_named() {
 #[test]
 fn hidden_quadratic_damping_is_named() {
     let c2 = 300.0;
-    let d = run(
+    let d = run_oscillator(
         "quadratic damping",
         Effects {
             quadratic_damping: Some(QuadraticDamping {
@@ -229,7 +143,7 @@ fn hidden_quadratic_damping_is_named() {
 
 #[test]
 fn json_report_has_exactly_the_issue_keys() {
-    let d = run(
+    let d = run_oscillator(
         "json",
         Effects {
             cubic_stiffness: Some(CubicStiffness {

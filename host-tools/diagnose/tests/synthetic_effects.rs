@@ -1,0 +1,539 @@
+//! Synthetic records with a hidden effect for the effects `synthetic.rs` does not cover,
+//! made by the simulated rig (`mil-rig`), and one record with two hidden effects.
+//!
+//! - Element effects (asymmetric damping, bump stop, free play, Bouc-Wen hysteresis, and
+//!   Coulomb friction + cubic stiffness together) are switched on in the `mil_rig::effects`
+//!   element of a one-DOF oscillator (2 kg on a 20 kN/m, 20 N·s/m spring-damper to ground)
+//!   driven by a prescribed force, as in `synthetic.rs`.
+//! - Input effects (`input_delay`, `saturation`, `rate_limit`): `mil-rig` has no such effect
+//!   on a prescribed input, so the record is made by applying the effect to the force signal
+//!   before it drives the (linear) rig; the record holds the force as commanded (before the
+//!   effect), which is what a test system logs.
+//! - Lift-off: a 250 kg mass on a preloaded tyre spring (static load `m g`) driven by a
+//!   track-like road (random profile plus bumps) through a displacement input; the tyre can
+//!   only push (`mil_rig` `lift_off`).
+//!
+//! Excitations: band-limited random force, a repeated logarithmic sine sweep, and the
+//! track-like road. Measurement noise: 0.5 % of the clean signal's RMS on the force (or
+//! road) column and 0.7 % on the displacement column. The models handed to the workflow
+//! are linear with their parameters 10–15 % off (the lift-off model keeps its mass, which
+//! a displacement-driven record cannot recalibrate, see the crate documentation).
+//!
+//! Every test prints what was named, the fitted parameters against the truth and the gap
+//! before → after (NRMSE of the simulated displacement on the validation part).
+//!
+//! `DIAGNOSE_SEED_OFFSET=N` re-runs every test on other records. Known failures (not tuned
+//! away): with offset 500 the backlash record also gets a `cubic_stiffness` with k3 not
+//! distinguishable from zero, with offset 700 the delay record also gets a `saturation`
+//! clipping about 1 % of the force; offsets 0–400 and 600 pass.
+
+mod common;
+
+use common::*;
+use mil_diagnose::{Diagnosis, EffectKind, Model, Record};
+use mil_rig::effects::{
+    AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, Element,
+    FreePlay,
+};
+use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
+use mil_rig::rng::SplitMix64;
+use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
+
+/// Measurement noise on the excitation column (fraction of its clean RMS).
+const INPUT_NOISE: f64 = 0.005;
+/// Measurement noise on the displacement column (fraction of its clean RMS).
+const OUTPUT_NOISE: f64 = 0.007;
+
+/// No actuator force (the specimen is driven by its road input only).
+struct NoForce;
+
+impl IdealInterface for NoForce {
+    fn forces(&self, _y: &[f64], _yd: &[f64], _road: &[f64], _rr: &[f64], forces: &mut [f64]) {
+        forces[0] = 0.0;
+    }
+    fn affine(&self) -> Option<AffineInterface> {
+        Some(AffineInterface {
+            offset_n: vec![0.0],
+            position_n_per_m: vec![vec![0.0]],
+            velocity_n_s_per_m: vec![vec![0.0]],
+            road_n_per_m: vec![vec![0.0]],
+            road_rate_n_s_per_m: vec![vec![0.0]],
+            lower_bound_n: vec![f64::NEG_INFINITY],
+        })
+    }
+}
+
+/// The record seed `n`, shifted by the environment variable `DIAGNOSE_SEED_OFFSET` (to
+/// re-run the tests on other records).
+fn seed(n: u64) -> u64 {
+    n + std::env::var("DIAGNOSE_SEED_OFFSET")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+        .unwrap_or(0)
+}
+
+/// Adds white noise of `fraction` × the signal's RMS.
+fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
+    let rms = (clean.iter().map(|v| v * v).sum::<f64>() / clean.len() as f64).sqrt();
+    clean
+        .iter()
+        .map(|v| v + fraction * rms * rng.normal())
+        .collect()
+}
+
+/// Simulates the oscillator with `effects` driven by the force `applied` (N); the record
+/// holds `recorded` (N, the commanded force) and the displacement, both with noise.
+fn force_record(effects: Effects, applied: &[f64], recorded: &[f64], seed: u64) -> Record {
+    let mut plant = oscillator_plant(effects);
+    let dt = 1.0 / FS;
+    let mut x = Vec::with_capacity(applied.len());
+    for i in 0..applied.len() {
+        x.push(plant.state()[0]);
+        let next = applied[(i + 1).min(applied.len() - 1)];
+        plant.advance(dt, &[0.0], &[applied[i]], &[next]);
+    }
+    let mut rng = SplitMix64::new(seed ^ 0xABCD);
+    let t: Vec<f64> = (0..applied.len()).map(|i| i as f64 * dt).collect();
+    let f = noisy(recorded, INPUT_NOISE, &mut rng);
+    let x = noisy(&x, OUTPUT_NOISE, &mut rng);
+    Record::new(&t, vec!["force".into(), "x".into()], vec![f, x]).expect("record")
+}
+
+/// Band-limited random force, 0.5–60 Hz, `FORCE_RMS`.
+fn noise_force(seed: u64) -> Vec<f64> {
+    mil_identify::band_limited_noise(0.5, 60.0, DURATION_S, FS, FORCE_RMS, false, seed)
+}
+
+/// A logarithmic sine sweep 3–60 Hz of `amplitude` (N), repeated every 4 s (so that
+/// both the fitting and the validation part cross the resonance, 15.9 Hz).
+fn sweep_force(amplitude: f64) -> Vec<f64> {
+    let period = mil_identify::log_sine_sweep(3.0, 60.0, 4.0, FS, amplitude);
+    let n = (DURATION_S * FS).round() as usize;
+    (0..n).map(|i| period[i % period.len()]).collect()
+}
+
+/// Parameter `key` of named effect `kind`.
+fn param(d: &Diagnosis, kind: EffectKind, key: &str) -> f64 {
+    d.named
+        .iter()
+        .find(|n| n.named.effect == kind)
+        .unwrap_or_else(|| panic!("{kind} not named"))
+        .named
+        .parameters[key]
+}
+
+/// Prints and checks `value` against `truth` within relative tolerance `rel`.
+fn check_rel(what: &str, value: f64, truth: f64, rel: f64) {
+    println!(
+        "  {what}: fitted {value:.5e}, truth {truth:.5e} ({:+.1} %, tolerance {:.0} %)",
+        100.0 * (value - truth) / truth,
+        100.0 * rel
+    );
+    assert!(
+        (value - truth).abs() <= rel * truth.abs(),
+        "{what}: {value} vs truth {truth} (tolerance {rel})"
+    );
+}
+
+/// Checks that the gap shrinks by at least `factor` against the model as given and against
+/// the recalibrated linear model (so that the named effect, not only the recalibration,
+/// accounts for the factor).
+fn check_gap(d: &Diagnosis, factor: f64) {
+    println!(
+        "  gap: {:.4} as given, {:.4} recalibrated -> {:.4} updated (required: {factor}x less than both)",
+        d.gap_before.nrmse, d.gap_recalibrated.nrmse, d.gap_after.nrmse
+    );
+    assert!(
+        d.gap_after.nrmse * factor <= d.gap_before.nrmse,
+        "gap {:.4} -> {:.4}: less than {factor}x",
+        d.gap_before.nrmse,
+        d.gap_after.nrmse
+    );
+    assert!(
+        d.gap_after.nrmse * factor <= d.gap_recalibrated.nrmse,
+        "gap of the recalibrated model {:.4} -> {:.4}: less than {factor}x",
+        d.gap_recalibrated.nrmse,
+        d.gap_after.nrmse
+    );
+}
+
+#[test]
+fn hidden_asymmetric_damping_is_named() {
+    // A damper three times as strong in rebound as in bump, mean equal to `C`.
+    let (bump, rebound) = (10.0, 30.0);
+    let f = noise_force(seed(11));
+    let record = force_record(
+        Effects {
+            asymmetric_damping: Some(AsymmetricDamping {
+                bump_n_s_per_m: bump,
+                rebound_n_s_per_m: rebound,
+            }),
+            ..Effects::default()
+        },
+        &f,
+        &f,
+        seed(11),
+    );
+    let d = run("asymmetric damping (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::AsymmetricDamping]);
+    // Damping coefficients within 15 % (the recalibration of linear damping is held to
+    // 10 % in `synthetic.rs`; each side here sees only half the data).
+    let k = EffectKind::AsymmetricDamping;
+    check_rel("c_bump", param(&d, k, "bump_n_s_per_m"), bump, 0.15);
+    check_rel(
+        "c_rebound",
+        param(&d, k, "rebound_n_s_per_m"),
+        rebound,
+        0.15,
+    );
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_bump_stop_is_named() {
+    // A stop as stiff as the spring, engaging at 3 mm compression.
+    let (gap, kb) = (3.0e-3, 2.0e4);
+    let f = sweep_force(30.0);
+    let record = force_record(
+        Effects {
+            bump_stop: Some(BumpStop {
+                gap_m: gap,
+                stiffness_n_per_m: kb,
+                rebound_gap_m: None,
+            }),
+            ..Effects::default()
+        },
+        &f,
+        &f,
+        seed(12),
+    );
+    let d = run("bump stop (sweep)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::BumpStop]);
+    // Gap within 10 % (0.3 mm, a small fraction of the displacement's range), stop
+    // stiffness within 15 %.
+    let k = EffectKind::BumpStop;
+    check_rel("gap", param(&d, k, "gap_m"), gap, 0.10);
+    check_rel("k_b", param(&d, k, "stiffness_n_per_m"), kb, 0.15);
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_backlash_is_named() {
+    // Free play of ±0.4 mm in the spring path.
+    let b = 0.4e-3;
+    let f = noise_force(seed(13));
+    let record = force_record(
+        Effects {
+            free_play: Some(FreePlay { half_gap_m: b }),
+            ..Effects::default()
+        },
+        &f,
+        &f,
+        seed(13),
+    );
+    let d = run("backlash (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::Backlash]);
+    // Half gap within 15 %; the spring behind it within 5 % (as `check_linear` in
+    // `synthetic.rs`).
+    check_rel(
+        "half gap",
+        param(&d, EffectKind::Backlash, "half_gap_m"),
+        b,
+        0.15,
+    );
+    check_rel(
+        "stiffness",
+        d.recalibrated["spring.stiffness_n_per_m"],
+        K,
+        0.05,
+    );
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_hysteresis_is_named() {
+    // Bouc-Wen: half the stiffness hysteretic, yield deflection 1/(β+γ) = 1 mm.
+    let bw = BoucWen {
+        alpha: 0.5,
+        a: 1.0,
+        beta: 700.0,
+        gamma: 300.0,
+        n: 1.0,
+    };
+    let f = noise_force(seed(14));
+    let record = force_record(
+        Effects {
+            bouc_wen: Some(bw),
+            ..Effects::default()
+        },
+        &f,
+        &f,
+        seed(14),
+    );
+    let d = run("hysteresis (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::Hysteresis]);
+    let k = EffectKind::Hysteresis;
+    let alpha = param(&d, k, "alpha");
+    let zy = param(&d, k, "a") / (param(&d, k, "beta_per_m") + param(&d, k, "gamma_per_m"));
+    // β and γ separately are weakly determined by a random excitation (many pairs give
+    // nearly the same loop); what the loop shows is the hysteretic fraction and the yield
+    // deflection: α within ±0.1 (absolute), z_y within 25 %, the total stiffness within 5 %.
+    println!(
+        "  alpha: fitted {alpha:.3}, truth {} (tolerance ±0.1)",
+        bw.alpha
+    );
+    assert!((alpha - bw.alpha).abs() <= 0.1, "alpha {alpha}");
+    check_rel("yield deflection", zy, bw.yield_deflection_m(), 0.25);
+    check_rel(
+        "total stiffness",
+        d.recalibrated["spring.stiffness_n_per_m"],
+        K,
+        0.05,
+    );
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_input_delay_is_named() {
+    // The force acts 6.5 ms after it is logged (transport delay of a drive).
+    let tau = 6.5e-3;
+    let f = noise_force(seed(15));
+    let shift = tau * FS;
+    let applied: Vec<f64> = (0..f.len())
+        .map(|i| {
+            let s = i as f64 - shift;
+            if s <= 0.0 {
+                f[0]
+            } else {
+                let j = s.floor() as usize;
+                let w = s - j as f64;
+                f[j] * (1.0 - w) + f[(j + 1).min(f.len() - 1)] * w
+            }
+        })
+        .collect();
+    let record = force_record(Effects::default(), &applied, &f, seed(15));
+    let d = run("input delay (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::InputDelay]);
+    // Delay within 0.5 ms (half a sample).
+    let v = param(&d, EffectKind::InputDelay, "delay_s");
+    println!("  delay: fitted {v:.5} s, truth {tau} s (tolerance 0.5 ms)");
+    assert!((v - tau).abs() <= 0.5e-3, "delay {v}");
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_input_saturation_is_named() {
+    // The drive clips the commanded force at ±1.6 × its RMS (about 11 % of the samples).
+    let limit = 1.6 * FORCE_RMS;
+    let f = noise_force(seed(16));
+    let applied: Vec<f64> = f.iter().map(|v| v.max(-limit).min(limit)).collect();
+    let record = force_record(Effects::default(), &applied, &f, seed(16));
+    let d = run("saturation (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::Saturation]);
+    // Limit within 10 %.
+    check_rel(
+        "limit",
+        param(&d, EffectKind::Saturation, "limit"),
+        limit,
+        0.10,
+    );
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_input_rate_limit_is_named() {
+    // The drive's force rate is limited to 6 kN/s (the commanded force's rate has an RMS
+    // of about 4.3 kN/s).
+    let rate = 6000.0;
+    let f = noise_force(seed(17));
+    let step = rate / FS;
+    let mut applied = f.clone();
+    for i in 1..applied.len() {
+        let prev = applied[i - 1];
+        applied[i] = applied[i].max(prev - step).min(prev + step);
+    }
+    let record = force_record(Effects::default(), &applied, &f, seed(17));
+    let d = run("rate limit (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::RateLimit]);
+    // Rate within 15 %.
+    check_rel(
+        "rate",
+        param(&d, EffectKind::RateLimit, "rate_per_s"),
+        rate,
+        0.15,
+    );
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_friction_and_cubic_stiffness_are_both_named() {
+    let (fc, k3) = (2.0, 6.0e9);
+    let f = noise_force(seed(18));
+    let record = force_record(
+        Effects {
+            coulomb_friction: Some(CoulombFriction {
+                force_n: fc,
+                smoothing_velocity_m_per_s: 1e-3,
+            }),
+            cubic_stiffness: Some(CubicStiffness {
+                stiffness_n_per_m3: k3,
+            }),
+            ..Effects::default()
+        },
+        &f,
+        &f,
+        seed(18),
+    );
+    let d = run(
+        "Coulomb friction + cubic stiffness (noise)",
+        &oscillator_model(),
+        &record,
+    );
+    let mut n = names(&d);
+    n.sort();
+    assert_eq!(
+        n,
+        [EffectKind::CoulombFriction, EffectKind::CubicStiffness],
+        "both effects, nothing else"
+    );
+    // As the single-effect tests in `synthetic.rs`: F_c within 15 %, k3 within 10 %.
+    check_rel(
+        "F_c",
+        param(&d, EffectKind::CoulombFriction, "force_n"),
+        fc,
+        0.15,
+    );
+    check_rel(
+        "k3",
+        param(&d, EffectKind::CubicStiffness, "stiffness_n_per_m3"),
+        k3,
+        0.10,
+    );
+    check_gap(&d, 2.0);
+}
+
+// --- Lift-off: a mass on a tyre spring over a track-like road -------------------------
+
+const WHEEL_MASS: f64 = 250.0;
+const TYRE_K: f64 = 1.5e5;
+const TYRE_C: f64 = 1500.0;
+
+/// A track-like road (m): a random profile (pink, 0.5–20 Hz, 2 mm RMS) with a 25 mm
+/// half-sine bump of 100 ms every 1.3 s.
+fn track_road(seed: u64) -> Vec<f64> {
+    let mut w = mil_identify::band_limited_noise(0.5, 20.0, DURATION_S, FS, 2e-3, true, seed);
+    let (height, len) = (25e-3, (0.1 * FS) as usize);
+    let every = (1.3 * FS) as usize;
+    let mut start = (0.5 * FS) as usize;
+    while start + len < w.len() {
+        for k in 0..len {
+            let s = k as f64 / len as f64;
+            w[start + k] += height * (std::f64::consts::PI * s).sin();
+        }
+        start += every;
+    }
+    w
+}
+
+fn lift_off_record(road: &[f64], seed: u64) -> Record {
+    let g = GRAVITY_M_PER_S2;
+    let tyre = Element::linear(TYRE_K, TYRE_C)
+        .with_preload(WHEEL_MASS * g)
+        .with_effects(Effects {
+            lift_off: true,
+            ..Effects::default()
+        });
+    let specimen = Specimen {
+        dofs: vec!["x".into()],
+        mass: vec![vec![WHEEL_MASS]],
+        static_force: vec![-WHEEL_MASS * g],
+        elements: vec![PlacedElement {
+            name: "tyre".into(),
+            element: tyre,
+            // Compression: the road rising towards the mass.
+            dof_coefficients: vec![-1.0],
+            input_coefficients: vec![1.0],
+        }],
+        inputs: vec!["road".into()],
+        attachments: vec![vec![1.0]],
+    };
+    let mut plant = Plant::with_ideal_interface(specimen, Box::new(NoForce), 1e-4).expect("plant");
+    let dt = 1.0 / FS;
+    let mut x = Vec::with_capacity(road.len());
+    for i in 0..road.len() {
+        x.push(plant.state()[0]);
+        let next = road[(i + 1).min(road.len() - 1)];
+        plant.advance(dt, &[0.0], &[road[i]], &[next]);
+    }
+    let airborne = (1..x.len())
+        .filter(|&i| {
+            let (xe, ve) = (
+                road[i] - x[i],
+                (road[i] - x[i] - road[i - 1] + x[i - 1]) * FS,
+            );
+            WHEEL_MASS * g + TYRE_K * xe + TYRE_C * ve < 0.0
+        })
+        .count();
+    let (xmin, xmax) = x
+        .iter()
+        .fold((f64::MAX, f64::MIN), |a, v| (a.0.min(*v), a.1.max(*v)));
+    println!("x in [{xmin:.4}, {xmax:.4}] m");
+    println!(
+        "lift-off record: tyre unloaded in {:.1} % of the samples",
+        100.0 * airborne as f64 / x.len() as f64
+    );
+    let mut rng = SplitMix64::new(seed ^ 0xABCD);
+    let t: Vec<f64> = (0..road.len()).map(|i| i as f64 * dt).collect();
+    let w = noisy(road, INPUT_NOISE, &mut rng);
+    let x = noisy(&x, OUTPUT_NOISE, &mut rng);
+    Record::new(&t, vec!["road".into(), "x".into()], vec![w, x]).expect("record")
+}
+
+#[test]
+fn hidden_lift_off_is_named() {
+    let record = lift_off_record(&track_road(seed(19)), seed(19));
+    // The mass is right (a displacement-driven record fixes only k/m and c/m), the tyre's
+    // stiffness −12 % and damping +15 % off.
+    let model = Model::from_toml(&format!(
+        r#"
+name = "wheel on tyre"
+[[dof]]
+name = "x"
+mass = {m}
+[[input]]
+name = "road"
+kind = "displacement"
+column = "road"
+[[element]]
+name = "tyre"
+upper = "x"
+lower = "road"
+stiffness_n_per_m = {k}
+damping_n_s_per_m = {c}
+[[output]]
+column = "x"
+kind = "displacement"
+of = "x"
+"#,
+        m = WHEEL_MASS,
+        k = TYRE_K * 0.88,
+        c = TYRE_C * 1.15
+    ))
+    .expect("model");
+    let d = run("lift-off (track-like road)", &model, &record);
+    assert_eq!(names(&d), [EffectKind::LiftOff]);
+    // The preload is the static wheel load m g: within 10 %.
+    check_rel(
+        "preload",
+        param(&d, EffectKind::LiftOff, "preload_n"),
+        WHEEL_MASS * GRAVITY_M_PER_S2,
+        0.10,
+    );
+    check_rel(
+        "tyre stiffness",
+        d.recalibrated["tyre.stiffness_n_per_m"],
+        TYRE_K,
+        0.05,
+    );
+    check_gap(&d, 2.0);
+}
