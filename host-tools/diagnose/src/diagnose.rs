@@ -435,32 +435,12 @@ fn linear_free(model: &Model) -> Vec<Coef> {
 
 /// The coefficients of the effects that are on in `model`.
 fn effect_coefs(model: &Model) -> Vec<Coef> {
-    let mut v = Vec::new();
-    for (e, el) in model.elements.iter().enumerate() {
-        let l = &el.law;
-        if l.hysteresis.is_some() {
-            v.push(Coef::KH(e));
-        }
-        if l.k3.is_some() {
-            v.push(Coef::K3(e));
-        }
-        if l.c_abs.is_some() {
-            v.push(Coef::CAbs(e));
-        }
-        if l.c2.is_some() {
-            v.push(Coef::C2(e));
-        }
-        if l.coulomb.is_some() {
-            v.push(Coef::Fc(e));
-        }
-        if l.bump.is_some() {
-            v.push(Coef::BumpK(e));
-        }
-        if l.rebound.is_some() {
-            v.push(Coef::RebK(e));
-        }
-    }
-    v
+    model
+        .elements
+        .iter()
+        .enumerate()
+        .flat_map(|(e, el)| equation::effect_coefs_of(e, &el.law))
+        .collect()
 }
 
 /// A fitted model structure.

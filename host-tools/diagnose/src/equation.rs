@@ -419,29 +419,8 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
         .iter()
         .enumerate()
         .map(|(e, el)| {
-            let l = &el.law;
             let mut v = vec![Coef::K(e), Coef::C(e)];
-            if l.hysteresis.is_some() {
-                v.push(Coef::KH(e));
-            }
-            if l.k3.is_some() {
-                v.push(Coef::K3(e));
-            }
-            if l.c_abs.is_some() {
-                v.push(Coef::CAbs(e));
-            }
-            if l.c2.is_some() {
-                v.push(Coef::C2(e));
-            }
-            if l.coulomb.is_some() {
-                v.push(Coef::Fc(e));
-            }
-            if l.bump.is_some() {
-                v.push(Coef::BumpK(e));
-            }
-            if l.rebound.is_some() {
-                v.push(Coef::RebK(e));
-            }
+            v.extend(effect_coefs_of(e, &el.law));
             v
         })
         .collect();
@@ -665,4 +644,21 @@ pub fn correlation_time_rows(res: &[f64], dofs: usize) -> f64 {
             signal::correlation_time(&r)
         })
         .fold(1.0, f64::max)
+}
+
+/// The coefficients of element `e`'s effects that are on in its law `l` (besides its
+/// stiffness and damping), in the regressor order.
+pub(crate) fn effect_coefs_of(e: usize, l: &crate::effects::ElementLaw) -> Vec<Coef> {
+    [
+        (l.hysteresis.is_some(), Coef::KH(e)),
+        (l.k3.is_some(), Coef::K3(e)),
+        (l.c_abs.is_some(), Coef::CAbs(e)),
+        (l.c2.is_some(), Coef::C2(e)),
+        (l.coulomb.is_some(), Coef::Fc(e)),
+        (l.bump.is_some(), Coef::BumpK(e)),
+        (l.rebound.is_some(), Coef::RebK(e)),
+    ]
+    .into_iter()
+    .filter_map(|(on, coef)| on.then_some(coef))
+    .collect()
 }
