@@ -284,6 +284,10 @@ struct LinearModel<const R: usize> {
     /// `[Φ_h; R e^{G h}]` by columns, for one internal step `step_s` (s; `NaN`: none).
     step_matrix: Vec<[f64; R]>,
     step_s: f64,
+    /// The control period (s) the last successful [`LinearModel::discretise`] was for, with
+    /// or without a fused matrix (`NaN`: none), so that a period too long for a fused
+    /// matrix is not discretised again every period.
+    period_s: f64,
     xi: Vec<f64>,
     /// The fused product at the last sample in the linear regime, and whether its step
     /// rows are valid for `fused_period_s` (cleared when used).
@@ -343,6 +347,7 @@ impl LinearParts {
             outputs_at: 0,
             step_matrix: vec![[0.0; R]; cols],
             step_s: f64::NAN,
+            period_s: f64::NAN,
             xi: vec![0.0; cols],
             sampled: [0.0; R],
             sample_pending: false,
@@ -472,6 +477,7 @@ impl<const R: usize> LinearModel<R> {
         let (p, states) = (self.parts.shape.cols, self.parts.shape.states);
         if !self.exp.iter().all(|v| v.is_finite()) {
             self.step_s = f64::NAN;
+            self.period_s = f64::NAN;
             self.fused_period_s = f64::NAN;
             self.set_fused(None, 0);
             return false;
@@ -492,6 +498,7 @@ impl<const R: usize> LinearModel<R> {
             }
         }
         self.step_s = h;
+        self.period_s = period_s;
         if self.parts.fused_rows(steps) <= R {
             let mut powers = vec![self.exp.clone()];
             for _ in 1..steps {
@@ -1593,7 +1600,7 @@ impl Plant {
         if self.exact_steps {
             if let Some(linear) = self.linear.as_mut() {
                 let (ready, rows) = with_linear!(&*linear, m => (
-                    m.step_s == h && m.fused_period_s == duration_s,
+                    m.step_s == h && m.period_s == duration_s,
                     m.parts.fused_rows(steps),
                 ));
                 if !ready && rows > linear.capacity() {
