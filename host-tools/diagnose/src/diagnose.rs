@@ -32,6 +32,7 @@ use crate::effects::{BoucWen, EffectKind};
 use crate::equation::{self, Coef, States};
 use crate::evidence::{self, BandEvidence, RegionEvidence, WindowEvidence};
 use crate::model::{InputKind, Model};
+use crate::parallel;
 use crate::record::Record;
 use crate::simulate::{self, prepare_inputs};
 use crate::{signal, Error, Result};
@@ -54,6 +55,9 @@ pub struct Options {
     /// Print progress lines to stderr (by [`diagnose`]; [`diagnose_with_progress`] reports
     /// to its callback instead); default false.
     pub progress: bool,
+    /// Worker threads for the candidate fits and the output-error Jacobians (0: the
+    /// machine's available parallelism); default 0. The result does not depend on it.
+    pub threads: usize,
 }
 
 impl Default for Options {
@@ -64,6 +68,7 @@ impl Default for Options {
             candidates: EffectKind::ALL.to_vec(),
             output_error: true,
             progress: false,
+            threads: 0,
         }
     }
 }
@@ -511,6 +516,24 @@ struct Candidate {
     target: usize,
 }
 
+/// Effectively independent rows (fitting rows over the residual's correlation time) on
+/// which a candidate's grid of threshold-like parameter values is ranked (see
+/// [`diagnose`]): 2000, a standard error of about 2 % on a sum of squares, ample to rank
+/// grid values that differ by a modelled effect.
+pub const GRID_EFFECTIVE_SAMPLES: f64 = 2000.0;
+
+/// A rough relative cost of fitting a candidate of `kind` (its grid size).
+fn cand_cost(kind: EffectKind) -> usize {
+    match kind {
+        EffectKind::Hysteresis => 40,
+        EffectKind::BumpStop => 12,
+        EffectKind::InputDelay => 8,
+        EffectKind::Backlash => 6,
+        EffectKind::LiftOff | EffectKind::RateLimit | EffectKind::Saturation => 5,
+        _ => 1,
+    }
+}
+
 fn candidates(model: &Model, kinds: &[EffectKind]) -> Vec<Candidate> {
     let mut out = Vec::new();
     for &kind in kinds {
@@ -572,7 +595,12 @@ fn physical(m: &Model, cand: Candidate) -> bool {
 
 /// Fits candidate `cand` on top of `base` (fitted with `base_free`); returns the best
 /// fit over its grid and the number of parameters it adds.
-fn fit_candidate(ctx: &Context<'_>, base: &Fit, cand: Candidate) -> Option<(Fit, usize)> {
+fn fit_candidate(
+    ctx: &Context<'_>,
+    grid: Option<&Context<'_>>,
+    base: &Fit,
+    cand: Candidate,
+) -> Option<(Fit, usize)> {
     let st = ctx.st;
     let model = &base.model;
     let mut free = base.free.clone();
@@ -636,13 +664,21 @@ fn fit_candidate(ctx: &Context<'_>, base: &Fit, cand: Candidate) -> Option<(Fit,
             }
             let mut free_r = base.free.clone();
             free_r.push(Coef::RebK(e));
-            let best_b = best_of(ctx, variants, &free);
-            let best_r = best_of(ctx, reb, &free_r);
+            let on = grid.unwrap_or(ctx);
+            let best_b = best_of(on, variants, &free).map(|f| (f, &free));
+            let best_r = best_of(on, reb, &free_r).map(|f| (f, &free_r));
             let best = match (best_b, best_r) {
-                (Some(a), Some(b)) => Some(if a.sse_fit <= b.sse_fit { a } else { b }),
+                (Some(a), Some(b)) => Some(if a.0.sse_fit <= b.0.sse_fit { a } else { b }),
                 (a, b) => a.or(b),
             };
-            return best.map(|f| (f, added));
+            return best.map(|(f, free)| {
+                let f = if grid.is_some() {
+                    ctx.fit(f.model, free)
+                } else {
+                    f
+                };
+                (f, added)
+            });
         }
         EffectKind::Backlash => {
             let absx: Vec<f64> = sig[e].x.iter().map(|v| v.abs()).collect();
@@ -695,9 +731,15 @@ fn fit_candidate(ctx: &Context<'_>, base: &Fit, cand: Candidate) -> Option<(Fit,
             if !free.contains(&Coef::K(e)) {
                 free.push(Coef::K(e));
             }
-            let best = best_of(ctx, variants, &free)?;
+            let on = grid.unwrap_or(ctx);
+            let best = best_of(on, variants, &free)?;
             // Local refinement of (ln β, γ/β) by a shrinking pattern search.
-            let refined = refine_hysteresis(ctx, best, &free, e);
+            let refined = refine_hysteresis(on, best, &free, e);
+            let refined = if grid.is_some() {
+                ctx.fit(refined.model, &free)
+            } else {
+                refined
+            };
             return Some((refined, added));
         }
         EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => {
@@ -738,7 +780,11 @@ fn fit_candidate(ctx: &Context<'_>, base: &Fit, cand: Candidate) -> Option<(Fit,
             }
         }
     }
-    best_of(ctx, variants, &free).map(|f| (f, added))
+    let best = match grid {
+        Some(g) if variants.len() > 1 => ctx.fit(best_of(g, variants, &free)?.model, &free),
+        _ => best_of(ctx, variants, &free)?,
+    };
+    Some((best, added))
 }
 
 fn best_of(ctx: &Context<'_>, variants: Vec<Model>, free: &[Coef]) -> Option<Fit> {
@@ -866,27 +912,74 @@ pub fn diagnose_with_progress(
     let mut named: Vec<NamedDetail> = Vec::new();
     let mut scores = Vec::new();
     let mut stages: Vec<(Fit, usize)> = Vec::new();
+    let threads = parallel::threads(options.threads);
     for round in 0..options.max_effects {
         let n_eff = (current.val_rows as f64 / current.tau).max(2.0);
         let mut best: Option<(f64, f64, Fit, Candidate, usize)> = None;
+        // The grids of the threshold-like parameters (gaps, preloads, delays, limits, the
+        // Bouc-Wen shape) are searched on the start of the fitting part holding
+        // `GRID_EFFECTIVE_SAMPLES` effectively independent rows (the current residual's
+        // correlation time sets how many rows that is), and the best grid point is then
+        // fitted on the whole fitting part: ranking a handful of grid values needs far
+        // fewer samples than the final estimate. Records shorter than that use it all.
+        let grid_states = {
+            let rows = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0);
+            let samples = st.edge + (rows * st.decimation as f64).ceil() as usize;
+            (samples + st.edge < fit_end).then(|| st.prefix(samples + st.edge))
+        };
+        let grid_ctx = grid_states.as_ref().map(|g| Context {
+            st: g,
+            weights: ctx.weights.clone(),
+            fit_end: g.q.first().map_or(0, Vec::len) - g.edge,
+        });
         let cands = candidates(&current.model, &options.candidates);
+        // The costly grids start first, so that the threads finish together; the results
+        // are taken in the candidates' order.
+        let mut work: Vec<usize> = (0..cands.len()).collect();
+        work.sort_by_key(|&i| std::cmp::Reverse(cand_cost(cands[i].kind)));
         let n_cands = cands.len().max(1) as f64;
-        for (i, cand) in cands.into_iter().enumerate() {
-            // Selection rounds share 0.1..0.6 of the work; later rounds may not happen.
-            let done = 0.1
-                + 0.5 * (round as f64 + (i + 1) as f64 / n_cands)
-                    / options.max_effects.max(1) as f64;
-            let Some((fit, added)) = fit_candidate(&ctx, &current, cand) else {
+        let mut finished = 0usize;
+        let mut fits: Vec<Option<(Fit, usize)>> = parallel::map(
+            &work,
+            threads,
+            |&i| fit_candidate(&ctx, grid_ctx.as_ref(), &current, cands[i]),
+            |w, fit| {
+                let i = work[w];
+                // Selection rounds share 0.1..0.6 of the work; later rounds may not happen.
+                finished += 1;
+                let done = 0.1
+                    + 0.5 * (round as f64 + finished as f64 / n_cands)
+                        / options.max_effects.max(1) as f64;
+                let cand = cands[i];
+                let what = match fit {
+                    None => "no fit".to_string(),
+                    Some((f, _)) if !physical(&f.model, cand) => "non-physical fit, skipped".into(),
+                    Some((f, added)) => {
+                        let ratio = f.sse_val / current.sse_val;
+                        let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
+                        format!("Δ = {crit:.1}, SSE x{ratio:.4}")
+                    }
+                };
+                let target = if cand.kind.on_input() {
+                    &current.model.inputs[cand.target].name
+                } else {
+                    &current.model.elements[cand.target].name
+                };
+                log(
+                    done,
+                    &format!("round {round}: {} on {target:?}: {what}", cand.kind),
+                );
+            },
+        );
+        let mut by_candidate: Vec<Option<(Fit, usize)>> = (0..cands.len()).map(|_| None).collect();
+        for (&i, fit) in work.iter().zip(fits.drain(..)) {
+            by_candidate[i] = fit;
+        }
+        for (cand, fit) in cands.into_iter().zip(by_candidate) {
+            let Some((fit, added)) = fit else {
                 continue;
             };
             if !physical(&fit.model, cand) {
-                log(
-                    done,
-                    &format!(
-                        "{} on target {}: non-physical fit, skipped",
-                        cand.kind, cand.target
-                    ),
-                );
                 continue;
             }
             let ratio = fit.sse_val / current.sse_val;
@@ -896,13 +989,6 @@ pub fn diagnose_with_progress(
             } else {
                 current.model.elements[cand.target].name.clone()
             };
-            log(
-                done,
-                &format!(
-                    "round {round}: {} on {target:?}: Δ = {crit:.1}, SSE x{ratio:.4}",
-                    cand.kind
-                ),
-            );
             scores.push(CandidateScore {
                 round,
                 effect: cand.kind,
@@ -961,7 +1047,7 @@ pub fn diagnose_with_progress(
             Ok(i) => i,
             Err(_) => return (Gap { nrmse: f64::NAN }, None),
         };
-        match simulate::simulate(m, record, &inp, 0..len, Some((&q0, &qd0))) {
+        match simulate::simulate_outputs(m, record, &inp, 0..len, Some((&q0, &qd0))) {
             Ok(sim) => {
                 let v: Vec<f64> = measured
                     .iter()
@@ -995,15 +1081,41 @@ pub fn diagnose_with_progress(
     };
     let (gap_before, gap_recalibrated, gap_after, sims) = if restrained {
         if options.output_error {
-            log(0.6, "output-error refinement of the recalibrated model");
-            if let Some((m, _)) = refine_output_error(
-                &recal_model,
-                &recal_fit.free,
-                record,
-                &measured,
-                fit_end,
-                (&q0, &qd0),
-            ) {
+            // The recalibrated model and every stage are refined independently (each from
+            // its own equation-error fit), so the refinements run concurrently; the
+            // confirmations below then take them in order.
+            log(
+                0.6,
+                &format!(
+                    "output-error refinement of the recalibrated model and {} stage(s)",
+                    stages.len()
+                ),
+            );
+            let jobs: Vec<(&Model, &[Coef])> = std::iter::once((&recal_model, &recal_fit.free[..]))
+                .chain(stages.iter().map(|(f, _)| (&f.model, &f.free[..])))
+                .collect();
+            // Each refinement also spreads its Jacobian over the threads, so that the last
+            // one to finish uses every core.
+            let inner = threads;
+            let mut refined_done = 0usize;
+            let mut refined: Vec<Option<(Model, Covariance)>> = parallel::map(
+                &jobs,
+                threads,
+                |(m, free)| {
+                    refine_output_error(m, free, record, &measured, fit_end, (&q0, &qd0), inner)
+                },
+                |_, _| {
+                    refined_done += 1;
+                    log(
+                        0.6 + 0.3 * refined_done as f64 / jobs.len() as f64,
+                        &format!(
+                            "output-error refinement {refined_done} of {} done",
+                            jobs.len()
+                        ),
+                    );
+                },
+            );
+            if let Some((m, _)) = refined[0].take() {
                 if sim_gap(&m).0.nrmse <= sim_gap(&recal_model).0.nrmse {
                     recal_model = m;
                 }
@@ -1013,7 +1125,8 @@ pub fn diagnose_with_progress(
             // the validation part's simulated outputs, in the order the effects were named.
             let val_res = |m: &Model| -> Option<Vec<f64>> {
                 let inp = prepare_inputs(m, record).ok()?;
-                let sim = simulate::simulate(m, record, &inp, 0..len, Some((&q0, &qd0))).ok()?;
+                let sim =
+                    simulate::simulate_outputs(m, record, &inp, 0..len, Some((&q0, &qd0))).ok()?;
                 let mut r = Vec::new();
                 for (me, s) in measured.iter().zip(&sim.outputs) {
                     let sc = 1.0 / signal::std(&me[fit_end..]).max(1e-300);
@@ -1025,25 +1138,13 @@ pub fn diagnose_with_progress(
             updated = recal_model.clone();
             let mut prev = val_res(&recal_model);
             let mut kept = 0;
-            for (k, (stage, added)) in stages.iter().enumerate() {
+            for (k, (_, added)) in stages.iter().enumerate() {
                 // A previous model whose simulation diverges (e.g. a linear recalibration
                 // that absorbed an input delay into a negative damping) gives no ratio: the
                 // stage is then confirmed if its own simulation stays finite.
                 let prev_r = prev.clone().filter(|r| sse(r).is_finite());
-                log(
-                    0.6 + 0.35 * (k + 1) as f64 / (stages.len() + 1) as f64,
-                    &format!("output-error refinement with {} effect(s)", k + 1),
-                );
                 let what = named[k].named.effect;
-                let refined = refine_output_error(
-                    &stage.model,
-                    &stage.free,
-                    record,
-                    &measured,
-                    fit_end,
-                    (&q0, &qd0),
-                );
-                let Some((m, (params, c), r)) = refined.and_then(|(m, pc)| {
+                let Some((m, (params, c), r)) = refined[k + 1].take().and_then(|(m, pc)| {
                     let r = val_res(&m).filter(|r| sse(r).is_finite())?;
                     Some((m, pc, r))
                 }) else {
@@ -1094,7 +1195,14 @@ pub fn diagnose_with_progress(
             if kept > 0 {
                 let mut free_now = stages[kept - 1].0.free.clone();
                 let mut added_of: Vec<usize> = stages[..kept].iter().map(|s| s.1).collect();
+                log(0.92, "backward elimination by simulation");
                 for i in (0..named.len()).rev() {
+                    // Removing the last effect from the final model gives the structure of
+                    // the previous stage, whose refinement the forward confirmation has
+                    // just compared: the same test, not repeated.
+                    if i + 1 == named.len() && i + 1 == kept {
+                        continue;
+                    }
                     let Some(r_with) = prev.clone() else { break };
                     let what = named[i].named.effect;
                     let target = named[i].named.element.clone();
@@ -1120,6 +1228,7 @@ pub fn diagnose_with_progress(
                         &measured,
                         fit_end,
                         (&q0, &qd0),
+                        threads,
                     )
                     .and_then(|(m2, pc)| {
                         let r = val_res(&m2).filter(|r| sse(r).is_finite())?;
@@ -1339,6 +1448,7 @@ fn refine_output_error(
     measured: &[&[f64]],
     fit_end: usize,
     initial: (&[f64], &[f64]),
+    threads: usize,
 ) -> Option<(Model, Covariance)> {
     let mut params: Vec<Param> = free.iter().map(|c| Param::Lin(*c)).collect();
     params.extend(nonlinear_params(model));
@@ -1349,7 +1459,7 @@ fn refine_output_error(
         .collect();
     let residual = |m: &Model| -> Option<Vec<f64>> {
         let inp = prepare_inputs(m, record).ok()?;
-        let sim = simulate::simulate(m, record, &inp, 0..fit_end, Some(initial)).ok()?;
+        let sim = simulate::simulate_outputs(m, record, &inp, 0..fit_end, Some(initial)).ok()?;
         let mut r = Vec::with_capacity(fit_end * measured.len());
         for ((me, s), sc) in measured.iter().zip(&sim.outputs).zip(&scale) {
             for t in 0..fit_end {
@@ -1364,14 +1474,24 @@ fn refine_output_error(
     let mut c = cost(&r);
     let mut lambda = 1e-3;
     let mut jac = DMatrix::<f64>::zeros(r.len(), p);
-    for _iter in 0..25 {
-        // Jacobian by forward differences.
-        for (k, par) in params.iter().enumerate() {
-            let v = par.get(&m);
-            let h = 1e-5 * v.abs().max(1e-9);
-            let mut mm = m.clone();
-            let ok = par.set(&mut mm, v + h);
-            let rk = if ok { residual(&mm) } else { None };
+    // Correlation time of the start residual (samples), for the convergence test.
+    let tau0 = equation::correlation_time_rows(&r, 1);
+    for _ in 0..25 {
+        // Jacobian by forward differences, one simulation per parameter, in parallel.
+        let columns = parallel::map(
+            &params,
+            threads,
+            |par| {
+                let v = par.get(&m);
+                let h = 1e-5 * v.abs().max(1e-9);
+                let mut mm = m.clone();
+                let ok = par.set(&mut mm, v + h);
+                let rk = if ok { residual(&mm) } else { None };
+                (rk, h)
+            },
+            |_, _| {},
+        );
+        for (k, (rk, h)) in columns.into_iter().enumerate() {
             match rk {
                 Some(rk) => {
                     for (i, (a, b)) in rk.iter().zip(&r).enumerate() {
@@ -1406,11 +1526,15 @@ fn refine_output_error(
             match trial {
                 Some(rt) if cost(&rt) < c => {
                     let rel = (c - cost(&rt)) / c;
+                    let c_before = c;
                     m = mm;
                     r = rt;
                     c = cost(&r);
                     lambda = (lambda / 3.0).max(1e-9);
-                    improved = rel > 1e-7;
+                    // Converged when the step moved the parameters by less than a tenth of
+                    // a standard error: a cost decrease `δᵀJᵀJδ` below 0.01 σ² τ.
+                    let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
+                    improved = rel > 1e-7 && c_before - c > 0.01 * sigma2 * tau0;
                     break;
                 }
                 _ => lambda *= 4.0,

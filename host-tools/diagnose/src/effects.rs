@@ -121,11 +121,12 @@ impl BoucWen {
     #[inline]
     pub fn rate(&self, v: f64, z: f64) -> f64 {
         let az = z.abs();
-        let azn1 = if self.n == 1.0 {
-            1.0
-        } else {
-            az.powf(self.n - 1.0)
-        };
+        if self.n == 1.0 {
+            // The common case, without `powf` (which the compiler would otherwise call for
+            // `n = 1` too, since `|z|⁰ = 1`).
+            return self.a * v - self.beta * v.abs() * z - self.gamma * v * az;
+        }
+        let azn1 = az.powf(self.n - 1.0);
         self.a * v - self.beta * v.abs() * azn1 * z - self.gamma * v * azn1 * az
     }
 }

@@ -49,6 +49,9 @@ pub struct States {
     pub decimation: usize,
     /// Samples dropped at each end (filter transients).
     pub edge: usize,
+    /// Memo of the state filter, its decimated results at the regression's samples
+    /// `edge, edge + decimation, …` (before `len − edge`).
+    pub cache: signal::LowpassCache,
 }
 
 /// Least-squares map from the displacement outputs to the DOF positions, if the
@@ -136,7 +139,11 @@ pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
         .collect::<Result<_>>()?;
     let decimation = ((fs / (5.0 * fc_hz)).floor() as usize).max(1);
     let edge = ((2.0 / (fc_hz * dt)).ceil() as usize).min(len / 20);
+    let keep = (edge..len.saturating_sub(edge))
+        .step_by(decimation)
+        .collect();
     Ok(States {
+        cache: signal::LowpassCache::new(fc_hz, dt, keep),
         q: qf,
         qd,
         qdd,
@@ -146,6 +153,29 @@ pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
         decimation,
         edge,
     })
+}
+
+impl States {
+    /// The states of the record's first `len` samples (at most the record), with their
+    /// own filter memo: the regression of a prefix, filtered over the prefix alone.
+    pub fn prefix(&self, len: usize) -> States {
+        let len = len.min(self.q.first().map_or(0, Vec::len));
+        let cut = |v: &[Vec<f64>]| v.iter().map(|x| x[..len].to_vec()).collect();
+        let keep = (self.edge..len.saturating_sub(self.edge))
+            .step_by(self.decimation)
+            .collect();
+        States {
+            q: cut(&self.q),
+            qd: cut(&self.qd),
+            qdd: cut(&self.qdd),
+            inputs_raw: cut(&self.inputs_raw),
+            fc_hz: self.fc_hz,
+            dt: self.dt,
+            decimation: self.decimation,
+            edge: self.edge,
+            cache: signal::LowpassCache::new(self.fc_hz, self.dt, keep),
+        }
+    }
 }
 
 /// A coefficient that enters the equations of motion linearly.
@@ -176,6 +206,22 @@ pub enum Coef {
 }
 
 impl Coef {
+    /// The element it belongs to (`None` for a DOF's mass or bias).
+    pub fn element(self) -> Option<usize> {
+        match self {
+            Coef::Mass(_) | Coef::Bias(_) => None,
+            Coef::K(e)
+            | Coef::C(e)
+            | Coef::KH(e)
+            | Coef::K3(e)
+            | Coef::CAbs(e)
+            | Coef::C2(e)
+            | Coef::Fc(e)
+            | Coef::BumpK(e)
+            | Coef::RebK(e) => Some(e),
+        }
+    }
+
     /// Its value in `model`.
     pub fn get(self, m: &Model) -> f64 {
         let law = |e: usize| &m.elements[e].law;
@@ -256,13 +302,13 @@ pub fn model_inputs(model: &Model, st: &States) -> (Vec<Vec<f64>>, Vec<Vec<f64>>
     let mut ud = Vec::new();
     for (inp, raw) in model.inputs.iter().zip(&st.inputs_raw) {
         let t = inp.law.transform(raw, st.dt);
-        let f = signal::lowpass_zero_phase(&t, st.fc_hz, st.dt);
+        let f = st.cache.full(&t);
         ud.push(if inp.kind == InputKind::Displacement {
             signal::derivative(&f, st.dt)
         } else {
             vec![0.0; f.len()]
         });
-        u.push(f);
+        u.push(f.to_vec());
     }
     (u, ud)
 }
@@ -356,6 +402,11 @@ pub struct System {
 
 /// Builds the regression of `model` with coefficients `free` estimated (the others held at
 /// their values in `model`), row weights `weights` per DOF.
+///
+/// The filter is linear, so every column and the right-hand side are combinations, at the
+/// kept samples, of filtered basis signals (an element's regressor, a DOF's acceleration, a
+/// force input, the constant); each basis signal is filtered once and memoised in
+/// [`States::cache`], so structures that share regressors share their filtering.
 pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> System {
     let n = model.n();
     let len = st.q.first().map_or(0, Vec::len);
@@ -382,141 +433,141 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
         })
         .collect();
     let is_free = |c: Coef| free.contains(&c);
-    let basis = |c: Coef, t: usize| -> f64 {
-        let e = match c {
-            Coef::K(e)
-            | Coef::C(e)
-            | Coef::KH(e)
-            | Coef::K3(e)
-            | Coef::CAbs(e)
-            | Coef::C2(e)
-            | Coef::Fc(e)
-            | Coef::BumpK(e)
-            | Coef::RebK(e) => e,
-            _ => return 0.0,
+    // The regressor of an element coefficient over the record (contact mask applied).
+    let basis = |c: Coef| -> Vec<f64> {
+        let Some(e) = c.element() else {
+            return vec![0.0; len];
         };
         let l = &model.elements[e].law;
         let s = &sig[e];
-        let (x, v) = (s.x[t], s.v[t]);
-        let xs = l.spring_deflection(x);
-        let b = match c {
-            Coef::K(_) => xs,
-            Coef::C(_) => v,
-            Coef::KH(_) => s.z[t],
-            Coef::K3(_) => xs * xs * xs,
-            Coef::CAbs(_) => v.abs(),
-            Coef::C2(_) => v * v.abs(),
-            Coef::Fc(_) => (v / l.coulomb.map_or(1e-3, |c| c.1)).tanh(),
-            Coef::BumpK(_) => (x - l.bump.map_or(0.0, |b| b.0)).max(0.0),
-            Coef::RebK(_) => (x + l.rebound.map_or(0.0, |b| b.0)).min(0.0),
-            _ => 0.0,
-        };
-        b * masks[e].as_ref().map_or(1.0, |m| m[t])
+        let veps = l.coulomb.map_or(1e-3, |c| c.1);
+        let bump = l.bump.map_or(0.0, |b| b.0);
+        let rebound = l.rebound.map_or(0.0, |b| b.0);
+        let mut b: Vec<f64> =
+            s.x.iter()
+                .zip(&s.v)
+                .zip(&s.z)
+                .map(|((&x, &v), &z)| match c {
+                    Coef::K(_) => l.spring_deflection(x),
+                    Coef::C(_) => v,
+                    Coef::KH(_) => z,
+                    Coef::K3(_) => l.spring_deflection(x).powi(3),
+                    Coef::CAbs(_) => v.abs(),
+                    Coef::C2(_) => v * v.abs(),
+                    Coef::Fc(_) => (v / veps).tanh(),
+                    Coef::BumpK(_) => (x - bump).max(0.0),
+                    Coef::RebK(_) => (x + rebound).min(0.0),
+                    Coef::Mass(_) | Coef::Bias(_) => 0.0,
+                })
+                .collect();
+        if let Some(m) = &masks[e] {
+            b.iter_mut().zip(m).for_each(|(v, m)| *v *= m);
+        }
+        b
     };
-    // Element coefficient lists (those that are on).
-    let elem_coefs: Vec<Vec<Coef>> = model
-        .elements
+    let filtered = |x: &[f64]| st.cache.kept(x);
+    let keep = st.cache.keep();
+    let kept = keep.len();
+    let ones = filtered(&vec![1.0; len]);
+    let qdd: Vec<_> = st.qdd.iter().map(|a| filtered(a)).collect();
+    // Filtered regressors of every element coefficient that is on (free or held).
+    let mut elem: Vec<Vec<(Coef, std::sync::Arc<Vec<f64>>)>> = Vec::new();
+    for (e, el) in model.elements.iter().enumerate() {
+        let mut coefs = vec![Coef::K(e), Coef::C(e)];
+        coefs.extend(effect_coefs_of(e, &el.law));
+        let extra: Vec<Coef> = free
+            .iter()
+            .copied()
+            .filter(|c| c.element() == Some(e) && !coefs.contains(c))
+            .collect();
+        coefs.extend(extra);
+        elem.push(
+            coefs
+                .into_iter()
+                .filter(|&c| is_free(c) || c.get(model) != 0.0)
+                .map(|c| (c, filtered(&basis(c))))
+                .collect(),
+        );
+    }
+    let liftoff: Vec<Option<std::sync::Arc<Vec<f64>>>> = masks
         .iter()
-        .enumerate()
-        .map(|(e, el)| {
-            let mut v = vec![Coef::K(e), Coef::C(e)];
-            v.extend(effect_coefs_of(e, &el.law));
-            v
+        .map(|m| {
+            m.as_ref().map(|m| {
+                let off: Vec<f64> = m.iter().map(|v| 1.0 - v).collect();
+                filtered(&off)
+            })
         })
         .collect();
-    let d = st.decimation;
-    let keep: Vec<usize> = (st.edge..len.saturating_sub(st.edge)).step_by(d).collect();
-    let rows = keep.len() * n;
+    let forces: Vec<Option<std::sync::Arc<Vec<f64>>>> = model
+        .inputs
+        .iter()
+        .zip(&u)
+        .map(|(inp, f)| (inp.kind == InputKind::Force).then(|| filtered(f)))
+        .collect();
+    let rows = kept * n;
     let mut columns = vec![vec![0.0; rows]; free.len()];
     let mut rhs = vec![0.0; rows];
-    let mut buf = vec![0.0; len];
+    let mut acc = vec![0.0; kept];
     for i in 0..n {
         let w = weights[i];
         // Right-hand side.
-        buf.iter_mut().for_each(|v| *v = 0.0);
-        for (inp, f) in model.inputs.iter().zip(&u) {
-            if inp.kind == InputKind::Force && inp.t[i] != 0.0 {
-                for t in 0..len {
-                    buf[t] += inp.t[i] * f[t];
-                }
+        acc.iter_mut().for_each(|v| *v = 0.0);
+        let mut add = |k: f64, y: &[f64]| {
+            if k != 0.0 {
+                acc.iter_mut().zip(y).for_each(|(a, y)| *a += k * y);
+            }
+        };
+        for (inp, f) in model.inputs.iter().zip(&forces) {
+            if let Some(f) = f {
+                add(inp.t[i], f);
             }
         }
         if !is_free(Coef::Bias(i)) {
-            buf.iter_mut().for_each(|v| *v += model.bias[i]);
+            add(model.bias[i], &ones);
         }
         if !is_free(Coef::Mass(i)) {
-            for (b, a) in buf.iter_mut().zip(&st.qdd[i]) {
-                *b -= model.mass[i] * a;
-            }
+            add(-model.mass[i], &qdd[i]);
         }
         for (e, el) in model.elements.iter().enumerate() {
             let a = el.a[i];
             if a == 0.0 {
                 continue;
             }
-            for &c in &elem_coefs[e] {
-                if !is_free(c) {
-                    let val = c.get(model);
-                    if val != 0.0 {
-                        for (t, b) in buf.iter_mut().enumerate() {
-                            *b -= a * val * basis(c, t);
-                        }
-                    }
+            for (c, y) in &elem[e] {
+                if !is_free(*c) {
+                    add(-a * c.get(model), y);
                 }
             }
-            if let (Some(p), Some(m)) = (el.law.lift_off, &masks[e]) {
-                for t in 0..len {
-                    buf[t] += a * p * (1.0 - m[t]);
-                }
+            if let (Some(p), Some(y)) = (el.law.lift_off, &liftoff[e]) {
+                add(a * p, y);
             }
         }
-        let f = signal::lowpass_zero_phase(&buf, st.fc_hz, st.dt);
-        for (r, &t) in keep.iter().enumerate() {
-            rhs[r * n + i] = w * f[t];
+        for (r, v) in acc.iter().enumerate() {
+            rhs[r * n + i] = w * v;
         }
         // Columns.
         for (ci, &c) in free.iter().enumerate() {
-            buf.iter_mut().for_each(|v| *v = 0.0);
-            let mut any = false;
-            match c {
-                Coef::Mass(j) if j == i => {
-                    buf.copy_from_slice(&st.qdd[i]);
-                    any = true;
-                }
-                Coef::Bias(j) if j == i => {
-                    buf.iter_mut().for_each(|v| *v = -1.0);
-                    any = true;
-                }
-                Coef::Mass(_) | Coef::Bias(_) => {}
-                Coef::K(e)
-                | Coef::C(e)
-                | Coef::KH(e)
-                | Coef::K3(e)
-                | Coef::CAbs(e)
-                | Coef::C2(e)
-                | Coef::Fc(e)
-                | Coef::BumpK(e)
-                | Coef::RebK(e) => {
+            let (k, y): (f64, &[f64]) = match c {
+                Coef::Mass(j) if j == i => (1.0, &qdd[i]),
+                Coef::Bias(j) if j == i => (-1.0, &ones),
+                Coef::Mass(_) | Coef::Bias(_) => continue,
+                _ => {
+                    let Some(e) = c.element() else { continue };
                     let a = model.elements[e].a[i];
-                    if a != 0.0 {
-                        for (t, b) in buf.iter_mut().enumerate() {
-                            *b = a * basis(c, t);
-                        }
-                        any = true;
+                    match elem[e].iter().find(|(x, _)| *x == c) {
+                        Some((_, y)) if a != 0.0 => (a, y),
+                        _ => continue,
                     }
                 }
-            }
-            if any {
-                let f = signal::lowpass_zero_phase(&buf, st.fc_hz, st.dt);
-                for (r, &t) in keep.iter().enumerate() {
-                    columns[ci][r * n + i] = w * f[t];
-                }
+            };
+            for (r, v) in y.iter().enumerate() {
+                columns[ci][r * n + i] = w * k * v;
             }
         }
     }
     let mut sample = Vec::with_capacity(rows);
     let mut dof = Vec::with_capacity(rows);
-    for &t in &keep {
+    for &t in keep {
         for i in 0..n {
             sample.push(t);
             dof.push(i);

@@ -24,6 +24,7 @@ pub mod effects;
 pub mod equation;
 pub mod evidence;
 pub mod model;
+pub mod parallel;
 pub mod record;
 pub mod signal;
 pub mod simulate;

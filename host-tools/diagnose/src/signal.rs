@@ -42,23 +42,31 @@ fn butterworth4(fc_over_fs: f64) -> [Biquad; 2] {
     })
 }
 
-fn run_biquad(s: &Biquad, x: &mut [f64]) {
-    // Start in the steady state for the first sample (unit DC gain).
-    let x0 = x.first().copied().unwrap_or(0.0);
-    let (mut z1, mut z2) = (x0 * (1.0 - s[0]), x0 * (s[2] - s[4]));
-    for v in x.iter_mut() {
+/// Runs the cascade of two sections over `x` in place, in the order `samples` gives
+/// (forward or reversed), starting both sections in the steady state of the first sample
+/// (unit DC gain). The sections run in one loop so that the second section's recursion
+/// overlaps the first's (the arithmetic is that of running them one after the other).
+fn run_cascade<'a>(s: &[Biquad; 2], samples: impl Iterator<Item = &'a mut f64>, x0: f64) {
+    let [a, b] = s;
+    let (mut a1, mut a2) = (x0 * (1.0 - a[0]), x0 * (a[2] - a[4]));
+    let (mut b1, mut b2) = (x0 * (1.0 - b[0]), x0 * (b[2] - b[4]));
+    for v in samples {
         let inp = *v;
-        let out = s[0] * inp + z1;
-        z1 = s[1] * inp - s[3] * out + z2;
-        z2 = s[2] * inp - s[4] * out;
-        *v = out;
+        let o1 = a[0] * inp + a1;
+        a1 = a[1] * inp - a[3] * o1 + a2;
+        a2 = a[2] * inp - a[4] * o1;
+        let o2 = b[0] * o1 + b1;
+        b1 = b[1] * o1 - b[3] * o2 + b2;
+        b2 = b[2] * o1 - b[4] * o2;
+        *v = o2;
     }
 }
 
 /// Zero-phase (forward-backward) fourth-order Butterworth low-pass at `fc_hz` (Hz) of a
 /// signal sampled every `dt` (s): magnitude `|H|²` of the fourth-order filter, no phase.
 /// The ends are padded by odd reflection to limit start-up transients. A cut-off at or
-/// above 0.49 of the sample rate returns the signal unchanged.
+/// above 0.49 of the sample rate returns the signal unchanged. The filter is linear in
+/// `x`.
 pub fn lowpass_zero_phase(x: &[f64], fc_hz: f64, dt: f64) -> Vec<f64> {
     let r = fc_hz * dt;
     if x.len() < 4 || r >= 0.49 {
@@ -75,15 +83,123 @@ pub fn lowpass_zero_phase(x: &[f64], fc_hz: f64, dt: f64) -> Vec<f64> {
     for i in 1..=pad {
         y.push(2.0 * x[n - 1] - x[n - 1 - i]);
     }
-    for s in &sections {
-        run_biquad(s, &mut y);
+    let first = y[0];
+    run_cascade(&sections, y.iter_mut(), first);
+    let last = y[y.len() - 1];
+    run_cascade(&sections, y.iter_mut().rev(), last);
+    y.truncate(pad + n);
+    y.drain(..pad);
+    y
+}
+
+/// A 128-bit fingerprint of a signal's exact bits (and its length and `salt`), as a key of
+/// [`LowpassCache`]: two independent multiply-xorshift chains, so that two different
+/// signals share a key with probability about 2⁻¹²⁸.
+pub fn fingerprint(x: &[f64], salt: u64) -> [u64; 2] {
+    let mut a = 0x243F_6A88_85A3_08D3 ^ salt;
+    let mut b = 0x1319_8A2E_0370_7344 ^ (x.len() as u64).rotate_left(17) ^ salt;
+    for v in x {
+        let w = v.to_bits();
+        a = (a ^ w).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        a ^= a >> 29;
+        b = (b.rotate_left(23) ^ w).wrapping_mul(0xD6E8_FEB8_6659_FD93);
     }
-    y.reverse();
-    for s in &sections {
-        run_biquad(s, &mut y);
+    [a ^ (a >> 32), b ^ (b >> 31)]
+}
+
+/// Memory the cache of a [`LowpassCache`] may hold (bytes) before it is emptied: 512 MiB.
+pub const LOWPASS_CACHE_BYTES: usize = 512 << 20;
+
+/// A memo of [`lowpass_zero_phase`] at one cut-off and sample interval, keyed by the
+/// input's [`fingerprint`]: the discrepancy workflow filters the same regressor (a
+/// stiffness column, a DOF's acceleration) for many candidate structures, and only the
+/// changed ones need filtering again. Shared between threads; emptied when it holds more
+/// than [`LOWPASS_CACHE_BYTES`]. A clone starts empty.
+pub struct LowpassCache {
+    fc_hz: f64,
+    dt: f64,
+    keep: Vec<usize>,
+    map: std::sync::Mutex<CacheMap>,
+}
+
+#[derive(Default)]
+struct CacheMap {
+    entries: std::collections::HashMap<[u64; 2], std::sync::Arc<Vec<f64>>>,
+    bytes: usize,
+}
+
+impl LowpassCache {
+    /// A cache for the low-pass at `fc_hz` (Hz) of signals sampled every `dt` (s), whose
+    /// [`LowpassCache::kept`] results are taken at the sample indices `keep`.
+    pub fn new(fc_hz: f64, dt: f64, keep: Vec<usize>) -> Self {
+        Self {
+            fc_hz,
+            dt,
+            keep,
+            map: std::sync::Mutex::new(CacheMap::default()),
+        }
     }
-    y.reverse();
-    y[pad..pad + n].to_vec()
+
+    /// The sample indices of [`LowpassCache::kept`] results.
+    pub fn keep(&self) -> &[usize] {
+        &self.keep
+    }
+
+    fn memo(&self, x: &[f64], salt: u64, f: impl FnOnce() -> Vec<f64>) -> std::sync::Arc<Vec<f64>> {
+        let key = fingerprint(x, salt);
+        if let Some(v) = self.lock().entries.get(&key) {
+            return v.clone();
+        }
+        // Filtered outside the lock: another thread may filter the same signal meanwhile,
+        // which costs time only (both results are equal).
+        let v = std::sync::Arc::new(f());
+        let mut map = self.lock();
+        let size = 8 * v.len() + 64;
+        if map.bytes + size > LOWPASS_CACHE_BYTES {
+            map.entries.clear();
+            map.bytes = 0;
+        }
+        map.bytes += size;
+        map.entries.insert(key, v.clone());
+        v
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, CacheMap> {
+        // A panic while holding the lock leaves a consistent map (insert or clear).
+        self.map
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// [`lowpass_zero_phase`] of `x` at every sample.
+    pub fn full(&self, x: &[f64]) -> std::sync::Arc<Vec<f64>> {
+        self.memo(x, 1, || lowpass_zero_phase(x, self.fc_hz, self.dt))
+    }
+
+    /// [`lowpass_zero_phase`] of `x` at the sample indices [`LowpassCache::keep`].
+    pub fn kept(&self, x: &[f64]) -> std::sync::Arc<Vec<f64>> {
+        self.memo(x, 2, || {
+            let y = lowpass_zero_phase(x, self.fc_hz, self.dt);
+            self.keep.iter().map(|&t| y[t]).collect()
+        })
+    }
+}
+
+impl Clone for LowpassCache {
+    fn clone(&self) -> Self {
+        Self::new(self.fc_hz, self.dt, self.keep.clone())
+    }
+}
+
+impl std::fmt::Debug for LowpassCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LowpassCache")
+            .field("fc_hz", &self.fc_hz)
+            .field("dt", &self.dt)
+            .field("kept_samples", &self.keep.len())
+            .field("entries", &self.lock().entries.len())
+            .finish()
+    }
 }
 
 /// First derivative (per s) by the five-point central difference (error `O(h⁴)`), lower

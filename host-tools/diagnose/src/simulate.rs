@@ -68,49 +68,105 @@ pub fn substeps(model: &Model, dt: f64) -> usize {
     ((dt * rate / 0.5).ceil() as usize).clamp(1, 400)
 }
 
+/// The model's equations of motion in a form the integrator evaluates quickly: only the
+/// non-zero couplings, `1 / mass` instead of a division.
 struct Rhs<'a> {
-    model: &'a Model,
-    hyst: Vec<usize>,
     n: usize,
+    bias: &'a [f64],
+    /// Per DOF.
+    inv_mass: Vec<f64>,
+    /// Force inputs: `(input index, [(DOF, t)])`.
+    forces: Vec<(usize, Vec<(usize, f64)>)>,
+    elements: Vec<CompiledElement<'a>>,
 }
 
-impl Rhs<'_> {
+struct CompiledElement<'a> {
+    /// `(DOF, a)` with `a ≠ 0`.
+    a: Vec<(usize, f64)>,
+    /// `(input, b)` with `b ≠ 0`.
+    b: Vec<(usize, f64)>,
+    law: &'a crate::effects::ElementLaw,
+    /// Index of its hysteretic state in `s[2n..]`.
+    z: Option<usize>,
+}
+
+impl<'a> Rhs<'a> {
+    fn new(model: &'a Model) -> Self {
+        let nonzero = |v: &[f64]| -> Vec<(usize, f64)> {
+            v.iter()
+                .copied()
+                .enumerate()
+                .filter(|(_, x)| *x != 0.0)
+                .collect()
+        };
+        let mut zi = 0;
+        let elements = model
+            .elements
+            .iter()
+            .map(|e| {
+                let z = e.law.hysteresis.is_some().then(|| {
+                    zi += 1;
+                    zi - 1
+                });
+                CompiledElement {
+                    a: nonzero(&e.a),
+                    b: nonzero(&e.b),
+                    law: &e.law,
+                    z,
+                }
+            })
+            .collect();
+        Self {
+            n: model.n(),
+            bias: &model.bias,
+            inv_mass: model.mass.iter().map(|m| 1.0 / m).collect(),
+            forces: model
+                .inputs
+                .iter()
+                .enumerate()
+                .filter(|(_, i)| i.kind == InputKind::Force)
+                .map(|(j, i)| (j, nonzero(&i.t)))
+                .collect(),
+            elements,
+        }
+    }
+
     /// Derivative of `s = [q, q̇, z]` with input values `u` and rates `ud`.
     fn eval(&self, s: &[f64], u: &[f64], ud: &[f64], out: &mut [f64]) {
         let n = self.n;
-        let m = self.model;
-        let (q, qd) = (&s[..n], &s[n..2 * n]);
+        let (q, rest) = s.split_at(n);
+        let (qd, z) = rest.split_at(n);
         let (head, zrate) = out.split_at_mut(2 * n);
-        head[..n].copy_from_slice(qd);
-        let acc = &mut head[n..2 * n];
-        acc.copy_from_slice(&m.bias);
-        for (inp, &f) in m.inputs.iter().zip(u) {
-            if inp.kind == InputKind::Force {
-                for (a, t) in acc.iter_mut().zip(&inp.t) {
-                    *a += t * f;
-                }
+        let (vel, acc) = head.split_at_mut(n);
+        vel.copy_from_slice(qd);
+        acc.copy_from_slice(self.bias);
+        for (j, t) in &self.forces {
+            let f = u[*j];
+            for &(i, ti) in t {
+                acc[i] += ti * f;
             }
         }
-        let mut zi = 0;
-        for (ei, e) in m.elements.iter().enumerate() {
-            let (x, v) = element_motion(e, q, qd, u, ud);
-            let z = if e.law.hysteresis.is_some() {
-                s[2 * n + zi]
-            } else {
-                0.0
-            };
-            let f = e.law.force(x, v, z);
-            for (a, ae) in acc.iter_mut().zip(&e.a) {
-                *a -= ae * f;
+        for e in &self.elements {
+            let (mut x, mut v) = (0.0, 0.0);
+            for &(i, a) in &e.a {
+                x += a * q[i];
+                v += a * qd[i];
             }
-            if e.law.hysteresis.is_some() {
-                debug_assert_eq!(self.hyst[zi], ei);
-                zrate[zi] = e.law.state_rate(x, v, z);
-                zi += 1;
+            for &(j, b) in &e.b {
+                x += b * u[j];
+                v += b * ud[j];
+            }
+            let zv = e.z.map_or(0.0, |k| z[k]);
+            let f = e.law.force(x, v, zv);
+            for &(i, a) in &e.a {
+                acc[i] -= a * f;
+            }
+            if let Some(k) = e.z {
+                zrate[k] = e.law.state_rate(x, v, zv);
             }
         }
-        for (a, mass) in acc.iter_mut().zip(&m.mass) {
-            *a /= mass;
+        for (a, im) in acc.iter_mut().zip(&self.inv_mass) {
+            *a *= im;
         }
     }
 }
@@ -151,17 +207,41 @@ pub fn simulate(
     range: std::ops::Range<usize>,
     initial: Option<(&[f64], &[f64])>,
 ) -> Result<Simulation> {
+    run(model, record, inputs, range, initial, true)
+}
+
+/// [`simulate`] recording the outputs only ([`Simulation::q`] and [`Simulation::qd`] are
+/// left empty): the fits' inner loop, which needs no DOF histories.
+///
+/// # Errors
+/// As [`simulate`].
+pub fn simulate_outputs(
+    model: &Model,
+    record: &Record,
+    inputs: &[Vec<f64>],
+    range: std::ops::Range<usize>,
+    initial: Option<(&[f64], &[f64])>,
+) -> Result<Simulation> {
+    run(model, record, inputs, range, initial, false)
+}
+
+fn run(
+    model: &Model,
+    record: &Record,
+    inputs: &[Vec<f64>],
+    range: std::ops::Range<usize>,
+    initial: Option<(&[f64], &[f64])>,
+    states: bool,
+) -> Result<Simulation> {
     let n = model.n();
     let dt = record.dt;
-    let hyst: Vec<usize> = model
+    let nz = model
         .elements
         .iter()
-        .enumerate()
-        .filter(|(_, e)| e.law.hysteresis.is_some())
-        .map(|(i, _)| i)
-        .collect();
-    let dim = 2 * n + hyst.len();
-    let rhs = Rhs { model, hyst, n };
+        .filter(|e| e.law.hysteresis.is_some())
+        .count();
+    let dim = 2 * n + nz;
+    let rhs = Rhs::new(model);
     let sub = substeps(model, dt);
     let h = dt / sub as f64;
     let mut s = vec![0.0; dim];
@@ -172,12 +252,13 @@ pub fn simulate(
     let len = range.len();
     let mut sim = Simulation {
         outputs: vec![Vec::with_capacity(len); model.outputs.len()],
-        q: vec![Vec::with_capacity(len); n],
-        qd: vec![Vec::with_capacity(len); n],
+        q: vec![Vec::with_capacity(if states { len } else { 0 }); n],
+        qd: vec![Vec::with_capacity(if states { len } else { 0 }); n],
         substeps: sub,
     };
     let ni = inputs.len();
     let (mut u, mut ud, mut u1) = (vec![0.0; ni], vec![0.0; ni], vec![0.0; ni]);
+    let mut ua = vec![0.0; ni];
     let mut k: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; dim]);
     let mut tmp = vec![0.0; dim];
     let mut deriv = vec![0.0; dim];
@@ -190,11 +271,10 @@ pub fn simulate(
         }
         // Record the outputs at this sample.
         rhs.eval(&s, &u, &ud, &mut deriv);
-        record_outputs(model, &s, &deriv, &u, &ud, &mut sim);
+        record_outputs(model, &s, &deriv, &u, &ud, &mut sim, states);
         if idx + 1 == range.end {
             break;
         }
-        let mut ua = u.clone();
         for st in 0..sub {
             let f0 = st as f64 / sub as f64;
             let fm = (st as f64 + 0.5) / sub as f64;
@@ -204,24 +284,29 @@ pub fn simulate(
                     out[j] = u[j] + f * (u1[j] - u[j]);
                 }
             };
-            at(f0, &mut ua);
-            rhs.eval(&s, &ua, &ud, &mut k[0]);
+            if st == 0 {
+                // The derivative at the sample, with the sample's inputs, was just taken.
+                k[0].copy_from_slice(&deriv);
+            } else {
+                at(f0, &mut ua);
+                rhs.eval(&s, &ua, &ud, &mut k[0]);
+            }
             at(fm, &mut ua);
-            for i in 0..dim {
-                tmp[i] = s[i] + 0.5 * h * k[0][i];
-            }
-            rhs.eval(&tmp, &ua, &ud, &mut k[1]);
-            for i in 0..dim {
-                tmp[i] = s[i] + 0.5 * h * k[1][i];
-            }
-            rhs.eval(&tmp, &ua, &ud, &mut k[2]);
+            let [k0, k1, k2, k3] = &mut k;
+            let stage = |tmp: &mut [f64], kk: &[f64], c: f64| {
+                for ((t, si), ki) in tmp.iter_mut().zip(&s).zip(kk) {
+                    *t = si + c * ki;
+                }
+            };
+            stage(&mut tmp, k0, 0.5 * h);
+            rhs.eval(&tmp, &ua, &ud, k1);
+            stage(&mut tmp, k1, 0.5 * h);
+            rhs.eval(&tmp, &ua, &ud, k2);
             at(f1, &mut ua);
-            for i in 0..dim {
-                tmp[i] = s[i] + h * k[2][i];
-            }
-            rhs.eval(&tmp, &ua, &ud, &mut k[3]);
-            for i in 0..dim {
-                s[i] += h / 6.0 * (k[0][i] + 2.0 * k[1][i] + 2.0 * k[2][i] + k[3][i]);
+            stage(&mut tmp, k2, h);
+            rhs.eval(&tmp, &ua, &ud, k3);
+            for ((((si, a), b), c), d) in s.iter_mut().zip(&*k0).zip(&*k1).zip(&*k2).zip(&*k3) {
+                *si += h / 6.0 * (a + 2.0 * b + 2.0 * c + d);
             }
         }
         if s.iter().any(|v| !v.is_finite() || v.abs() > 1e9) {
@@ -241,12 +326,15 @@ fn record_outputs(
     u: &[f64],
     ud: &[f64],
     sim: &mut Simulation,
+    states: bool,
 ) {
     let n = model.n();
     let (q, qd, qdd) = (&s[..n], &s[n..2 * n], &deriv[n..2 * n]);
-    for i in 0..n {
-        sim.q[i].push(q[i]);
-        sim.qd[i].push(qd[i]);
+    if states {
+        for i in 0..n {
+            sim.q[i].push(q[i]);
+            sim.qd[i].push(qd[i]);
+        }
     }
     for (o, out) in model.outputs.iter().zip(&mut sim.outputs) {
         let v = match (&o.target, o.kind) {
