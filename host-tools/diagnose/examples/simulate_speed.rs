@@ -3,7 +3,7 @@
 //! 420 000 samples of a random road at 1 kHz, outputs only, fastest of 5 runs.
 //!
 //! ```text
-//! cargo run --release -p mil-diagnose --example simulate_speed
+//! cargo run --release -p mil-diagnose --example simulate_speed [-- SAMPLES]
 //! ```
 
 use mil_diagnose::simulate::{prepare_inputs, simulate_outputs};
@@ -16,7 +16,9 @@ fn main() {
         Model::from_toml(&std::fs::read_to_string(path).expect("tyre.toml")).expect("tyre.toml");
     model.elements[1].law.lift_off = Some(1667.0);
     model.elements[0].law.c_abs = Some(-1000.0);
-    let n = 420_000;
+    let n = std::env::args()
+        .nth(1)
+        .map_or(420_000, |a| a.parse().expect("SAMPLES: a number"));
     let dt = 1e-3;
     let mut s = 0x1234_5678u64;
     let mut road = Vec::with_capacity(n);

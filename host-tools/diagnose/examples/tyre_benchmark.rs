@@ -19,7 +19,7 @@
 //! load cell zeroed at rest reads it), each with white measurement noise of 0.5 % (road)
 //! or 0.7 % (outputs) of its clean RMS.
 //!
-//! Printed: the record length, the wall time and the thread CPU time of `diagnose` (the
+//! Printed: the record length, the wall time and the process CPU time of `diagnose` (the
 //! simulation that makes the record is not timed), the named effects with their
 //! parameters, the recalibrated parameters, the gap before → after, and the target.
 
@@ -235,7 +235,10 @@ fn main() {
         options.candidates.len()
     );
     println!("diagnose wall time: {wall:.2} s");
-    println!("diagnose thread CPU time: {cpu:.2} s (process CPU time: {process:.2} s; diagnose is single-threaded)");
+    println!(
+        "diagnose process CPU time: {process:.2} s on {} worker threads (calling thread alone: {cpu:.2} s)",
+        mil_diagnose::parallel::threads(options.threads)
+    );
     for n in &d.named {
         println!(
             "named: {} on {}: {:?}",

@@ -522,6 +522,15 @@ struct Candidate {
 /// grid values that differ by a modelled effect.
 pub const GRID_EFFECTIVE_SAMPLES: f64 = 2000.0;
 
+/// Effectively independent samples of each output (samples over the output-error
+/// residual's correlation time) that the output-error refinement simulates: 2000 (all of
+/// the fitting part when it holds fewer). A compute budget: the refinement starts from
+/// the equation-error estimates of the whole fitting part, removes their
+/// errors-in-variables bias and confirms each effect in simulation, for which the
+/// precision of 2000 independent samples per output is ample; its cost then stops
+/// growing with the record.
+pub const REFINE_EFFECTIVE_SAMPLES: f64 = 2000.0;
+
 /// A rough relative cost of fitting a candidate of `kind` (its grid size).
 fn cand_cost(kind: EffectKind) -> usize {
     match kind {
@@ -1437,7 +1446,9 @@ fn parameter_std(
         .collect()
 }
 
-/// Levenberg–Marquardt on the simulated outputs over samples `0..fit_end`; the parameters
+/// Levenberg–Marquardt on the simulated outputs over the start of the fitting part
+/// `0..fit_end` holding [`REFINE_EFFECTIVE_SAMPLES`] effectively independent samples per
+/// output (judged on the start model's residual); the parameters
 /// are the linear coefficients `free` and the effects' other parameters. Returns the
 /// refined model and the parameters with their covariance (σ² (JᵀJ)⁻¹ inflated by the
 /// residual's correlation time), or `None` if the start diverges.
@@ -1457,12 +1468,12 @@ fn refine_output_error(
         .iter()
         .map(|m| 1.0 / signal::std(&m[..fit_end]).max(1e-300))
         .collect();
-    let residual = |m: &Model| -> Option<Vec<f64>> {
+    let residual_to = |m: &Model, end: usize| -> Option<Vec<f64>> {
         let inp = prepare_inputs(m, record).ok()?;
-        let sim = simulate::simulate_outputs(m, record, &inp, 0..fit_end, Some(initial)).ok()?;
-        let mut r = Vec::with_capacity(fit_end * measured.len());
+        let sim = simulate::simulate_outputs(m, record, &inp, 0..end, Some(initial)).ok()?;
+        let mut r = Vec::with_capacity(end * measured.len());
         for ((me, s), sc) in measured.iter().zip(&sim.outputs).zip(&scale) {
-            for t in 0..fit_end {
+            for t in 0..end {
                 r.push((s[t] - me[t]) * sc);
             }
         }
@@ -1470,12 +1481,26 @@ fn refine_output_error(
     };
     let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
     let mut m = model.clone();
-    let mut r = residual(&m)?;
+    let start = residual_to(&m, fit_end)?;
+    // Correlation time of the start residual (samples): sets the window and the
+    // convergence test.
+    let tau0 = equation::correlation_time_rows(&start, 1);
+    // The refinement simulates the start of the fitting part holding
+    // `REFINE_EFFECTIVE_SAMPLES` effectively independent samples of each output (all of it
+    // when shorter).
+    let end = fit_end.min((REFINE_EFFECTIVE_SAMPLES * tau0).ceil() as usize);
+    let residual = |m: &Model| residual_to(m, end);
+    let mut r = if end == fit_end {
+        start
+    } else {
+        start
+            .chunks(fit_end)
+            .flat_map(|c| c[..end].iter().copied())
+            .collect()
+    };
     let mut c = cost(&r);
     let mut lambda = 1e-3;
     let mut jac = DMatrix::<f64>::zeros(r.len(), p);
-    // Correlation time of the start residual (samples), for the convergence test.
-    let tau0 = equation::correlation_time_rows(&r, 1);
     for _ in 0..25 {
         // Jacobian by forward differences, one simulation per parameter, in parallel.
         let columns = parallel::map(

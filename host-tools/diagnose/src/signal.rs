@@ -96,10 +96,15 @@ pub fn lowpass_zero_phase(x: &[f64], fc_hz: f64, dt: f64) -> Vec<f64> {
 /// [`LowpassCache`]: two independent multiply-xorshift chains, so that two different
 /// signals share a key with probability about 2⁻¹²⁸.
 pub fn fingerprint(x: &[f64], salt: u64) -> [u64; 2] {
+    fingerprint_words(x.iter().map(|v| v.to_bits()), x.len(), salt)
+}
+
+/// [`fingerprint`] of a sequence of `len` words (a key made of indices and parameter
+/// bits).
+pub fn fingerprint_words(words: impl Iterator<Item = u64>, len: usize, salt: u64) -> [u64; 2] {
     let mut a = 0x243F_6A88_85A3_08D3 ^ salt;
-    let mut b = 0x1319_8A2E_0370_7344 ^ (x.len() as u64).rotate_left(17) ^ salt;
-    for v in x {
-        let w = v.to_bits();
+    let mut b = 0x1319_8A2E_0370_7344 ^ (len as u64).rotate_left(17) ^ salt;
+    for w in words {
         a = (a ^ w).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         a ^= a >> 29;
         b = (b.rotate_left(23) ^ w).wrapping_mul(0xD6E8_FEB8_6659_FD93);
@@ -146,7 +151,17 @@ impl LowpassCache {
     }
 
     fn memo(&self, x: &[f64], salt: u64, f: impl FnOnce() -> Vec<f64>) -> std::sync::Arc<Vec<f64>> {
-        let key = fingerprint(x, salt);
+        self.memo_key(fingerprint(x, salt), f)
+    }
+
+    /// The vector memoised under `key`, made by `f` on a miss (a key from
+    /// [`fingerprint_words`] of what determines the vector; keys of [`LowpassCache::full`]
+    /// and [`LowpassCache::kept`] are content fingerprints with salts 1 and 2).
+    pub fn memo_key(
+        &self,
+        key: [u64; 2],
+        f: impl FnOnce() -> Vec<f64>,
+    ) -> std::sync::Arc<Vec<f64>> {
         if let Some(v) = self.lock().entries.get(&key) {
             return v.clone();
         }
@@ -178,10 +193,22 @@ impl LowpassCache {
 
     /// [`lowpass_zero_phase`] of `x` at the sample indices [`LowpassCache::keep`].
     pub fn kept(&self, x: &[f64]) -> std::sync::Arc<Vec<f64>> {
-        self.memo(x, 2, || {
-            let y = lowpass_zero_phase(x, self.fc_hz, self.dt);
-            self.keep.iter().map(|&t| y[t]).collect()
-        })
+        self.memo(x, 2, || self.lowpass_kept(x))
+    }
+
+    /// [`LowpassCache::kept`] of the signal `x()` memoised under `key` (see
+    /// [`LowpassCache::memo_key`]): the signal is made only on a miss.
+    pub fn kept_key(
+        &self,
+        key: [u64; 2],
+        x: impl FnOnce() -> Vec<f64>,
+    ) -> std::sync::Arc<Vec<f64>> {
+        self.memo_key(key, || self.lowpass_kept(&x()))
+    }
+
+    fn lowpass_kept(&self, x: &[f64]) -> Vec<f64> {
+        let y = lowpass_zero_phase(x, self.fc_hz, self.dt);
+        self.keep.iter().map(|&t| y[t]).collect()
     }
 }
 
