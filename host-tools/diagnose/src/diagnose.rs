@@ -9,7 +9,10 @@
 //! 3. **Candidates**: each effect on each element (or input) it applies to, its
 //!    coefficients fitted together with the linear parameters (linear least squares; effects
 //!    with a threshold-like parameter — gap, preload, delay, limits, Bouc-Wen shape — by a
-//!    grid over quantiles of the data, each grid point a linear fit).
+//!    grid over quantiles of the data, each grid point a linear fit, ranked on the start of
+//!    the fitting part holding [`GRID_EFFECTIVE_SAMPLES`] effectively independent rows; the
+//!    best grid point is then fitted on the whole fitting part). Candidates are fitted on
+//!    all cores ([`Options::threads`]); the result does not depend on the thread count.
 //! 4. **Selection** on the validation part by the Bayesian information criterion
 //!    `Δ = n_eff ln(SSE_candidate / SSE_current) + p ln(n_eff)` with `p` the candidate's
 //!    added parameters and `n_eff` the validation rows divided by the current residual's
@@ -23,7 +26,11 @@
 //!    the selection criterion on the simulated outputs (against the previous stage; if that
 //!    stage's simulation diverges, a finite simulation confirms it), and then a backward
 //!    elimination removes, one at a time, any effect whose removal (the rest refined by
-//!    output error from the final parameters) does not worsen the criterion.
+//!    output error from the final parameters) does not worsen the criterion, or whose
+//!    strength (e.g. `k3`, a friction force, a gap; see `strength`) is not distinguishable
+//!    from none by a Wald test with the criterion's penalty (`z² < ln n_eff`). The
+//!    refinement simulates the start of the fitting part holding
+//!    [`REFINE_EFFECTIVE_SAMPLES`] effectively independent samples per output.
 //! 6. **Gap**: NRMSE of the simulated outputs on the validation part (restrained models),
 //!    else of the inverse-dynamics force prediction (equation-error residual over the
 //!    right-hand side's spread).
@@ -379,6 +386,32 @@ impl Param {
             }
         }
     }
+}
+
+/// The parameter that measures how strong effect `kind` on `target` is in `m`, where the
+/// effect vanishes at a finite value of it (zero): cubic stiffness `k3`, friction force,
+/// quadratic damping `c2`, asymmetric half difference, stop stiffness, backlash half gap,
+/// hysteretic stiffness `k_h`, delay. Lift-off, rate limit and saturation vanish only as
+/// their parameter goes to infinity: `None`.
+fn strength(m: &Model, kind: EffectKind, target: &str) -> Option<Param> {
+    if kind.on_input() {
+        let j = m.inputs.iter().position(|i| i.name == target)?;
+        return (kind == EffectKind::InputDelay).then_some(Param::Delay(j));
+    }
+    let e = m.elements.iter().position(|x| x.name == target)?;
+    let l = &m.elements[e].law;
+    let coef = match kind {
+        EffectKind::CubicStiffness => Coef::K3(e),
+        EffectKind::CoulombFriction => Coef::Fc(e),
+        EffectKind::QuadraticDamping => Coef::C2(e),
+        EffectKind::AsymmetricDamping => Coef::CAbs(e),
+        EffectKind::Hysteresis => Coef::KH(e),
+        EffectKind::BumpStop if l.bump.is_some() => Coef::BumpK(e),
+        EffectKind::BumpStop => Coef::RebK(e),
+        EffectKind::Backlash => return Some(Param::Backlash(e)),
+        _ => return None,
+    };
+    Some(Param::Lin(coef))
 }
 
 /// The parameters of `model`'s effects that are not linear coefficients.
@@ -1206,15 +1239,25 @@ pub fn diagnose_with_progress(
                 let mut added_of: Vec<usize> = stages[..kept].iter().map(|s| s.1).collect();
                 log(0.92, "backward elimination by simulation");
                 for i in (0..named.len()).rev() {
-                    // Removing the last effect from the final model gives the structure of
-                    // the previous stage, whose refinement the forward confirmation has
-                    // just compared: the same test, not repeated.
-                    if i + 1 == named.len() && i + 1 == kept {
-                        continue;
-                    }
+                    // (Removing the last effect gives the previous stage's structure, but
+                    // refined from a different start: Levenberg–Marquardt from the previous
+                    // stage's equation-error fit may stop short of where it gets from here,
+                    // which would credit the last effect with the difference.)
                     let Some(r_with) = prev.clone() else { break };
                     let what = named[i].named.effect;
                     let target = named[i].named.element.clone();
+                    // Wald test of the effect's strength against its null value (where it has
+                    // one), on the final refinement's covariance, with the criterion's
+                    // penalty per parameter: z² must exceed ln(n_eff).
+                    let n_eff_with =
+                        (r_with.len() as f64 / signal::correlation_time(&r_with)).max(2.0);
+                    let wald = strength(&updated, what, &target).and_then(|par| {
+                        let k = cov_params.iter().position(|x| *x == par)?;
+                        let var = cov[(k, k)];
+                        let v = par.get(&updated);
+                        (var.is_finite() && var > 0.0).then(|| v * v / var)
+                    });
+                    let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
                     let mut m_wo = updated.clone();
                     if what.on_input() {
                         if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
@@ -1248,9 +1291,17 @@ pub fn diagnose_with_progress(
                     let n_eff = (r_wo.len() as f64 / signal::correlation_time(&r_wo)).max(2.0);
                     let ratio = sse(&r_with) / sse(&r_wo);
                     let crit = n_eff * ratio.ln() + added_of[i] as f64 * n_eff.ln();
-                    if !(crit.is_finite() && crit < 0.0) {
+                    if weak || !(crit.is_finite() && crit < 0.0) {
+                        let why = match wald {
+                            Some(z2) if weak => format!(
+                                "its strength is within {:.2} standard errors of none (Wald z² {z2:.2} < ln n_eff = {:.1})",
+                                z2.sqrt(),
+                                n_eff_with.ln()
+                            ),
+                            _ => "the other effects refined without it do as well in simulation".into(),
+                        };
                         notes.push(format!(
-                            "{what}: dropped, the other effects refined without it do as well in simulation (validation SSE x{ratio:.3} with it, criterion {crit:.1})"
+                            "{what}: dropped, {why} (validation SSE x{ratio:.3} with it, criterion {crit:.1})"
                         ));
                         named.remove(i);
                         added_of.remove(i);

@@ -9,7 +9,7 @@ use model_core::{
     AeroParams, CascadeCoefficients, Causality, ControllerParams, DemandLimits, InterfaceParams,
     PreparedParams, SubstructureModel, SubstructureParams, TyreModelParams, TyreParams, MAX_DOF,
 };
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The tyre example, built into the tool: `mil run` without a file uses it.
@@ -96,7 +96,7 @@ pub struct ModelSection {
 }
 
 /// `[tyre]`.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TyreSection {
     /// Radial stiffness (N/m).

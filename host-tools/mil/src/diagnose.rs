@@ -25,6 +25,18 @@ pub struct DiagnoseRequest {
     pub data: PathBuf,
     /// Output folder (created if needed).
     pub out: PathBuf,
+    /// Export this element of the updated model as model-core's real-time tyre (the
+    /// `[tyre]` table of a `mil sim` configuration, `tyre.toml` in the output folder).
+    pub tyre: Option<TyreExport>,
+}
+
+/// What `--tyre` exports (see [`tyre_section`]).
+#[derive(Clone, Debug)]
+pub struct TyreExport {
+    /// The element of the model that is the tyre.
+    pub element: String,
+    /// Static wheel load (N) when the updated model has no lift-off to tell it.
+    pub static_load_n: Option<f64>,
 }
 
 /// The result of `mil diagnose`.
@@ -38,6 +50,8 @@ pub struct DiagnoseOutput {
     pub report: PathBuf,
     /// The plots written (SVG).
     pub plots: Vec<PathBuf>,
+    /// The `[tyre]` table written for model-core's real-time tyre (`--tyre`).
+    pub tyre: Option<PathBuf>,
 }
 
 /// Reads the model and the record, checks that the record has the model's columns, runs the
@@ -61,12 +75,105 @@ pub fn run_diagnose(
     let report = request.out.join("report.json");
     progress(1.0, "writing plots");
     let plots = write_plots(&diagnosis, &record, &request.out)?;
+    let tyre = match &request.tyre {
+        Some(t) => {
+            let section = tyre_section(&diagnosis.updated, &t.element, t.static_load_n)?;
+            let path = request.out.join("tyre.toml");
+            std::fs::write(&path, tyre_toml(&section, &t.element, &request.model)?)
+                .with_context(|| format!("writing {}", path.display()))?;
+            Some(path)
+        }
+        None => None,
+    };
     Ok(DiagnoseOutput {
         diagnosis,
         updated_model,
         report,
         plots,
+        tyre,
     })
+}
+
+/// The `[tyre]` table of a `mil sim` configuration — model-core's real-time tyre, which the
+/// board runs — from element `element` of a (diagnosed) model: its stiffness and damping,
+/// lift-off if the model has it, the static load from the lift-off preload (or
+/// `static_load_n`, which takes precedence), and the velocity low-pass of model-core's
+/// paper tyre (500 Hz). The element compresses as the tyre's deflection `δ = road − hub`,
+/// as in the tyre example (`host-tools/diagnose/examples/tyre.toml`).
+///
+/// # Errors
+/// No such element; the element has effects model-core's tyre does not model (it has
+/// stiffness, damping, static load and lift-off); no static load (neither lift-off nor
+/// `static_load_n`); or model-core rejects the values.
+pub fn tyre_section(
+    model: &Model,
+    element: &str,
+    static_load_n: Option<f64>,
+) -> Result<crate::config::TyreSection> {
+    let el = model
+        .elements
+        .iter()
+        .find(|e| e.name == element)
+        .ok_or_else(|| {
+            anyhow!(
+                "--tyre {element:?}: the model has no such element (elements: {})",
+                model
+                    .elements
+                    .iter()
+                    .map(|e| e.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+    let law = &el.law;
+    let unsupported: Vec<String> = law
+        .kinds()
+        .into_iter()
+        .filter(|k| *k != mil_diagnose::EffectKind::LiftOff)
+        .map(|k| k.to_string())
+        .collect();
+    if !unsupported.is_empty() {
+        bail!(
+            "--tyre {element:?}: the element has {}, which model-core's real-time tyre does not model (it has stiffness, damping, static load and lift-off)",
+            unsupported.join(", ")
+        );
+    }
+    let static_load = static_load_n.or(law.lift_off).ok_or_else(|| {
+        anyhow!(
+            "--tyre {element:?}: the element has no lift-off, so the record does not tell its static load: give --tyre-static-load-n"
+        )
+    })?;
+    let section = crate::config::TyreSection {
+        stiffness_n_per_m: law.k as f32,
+        damping_n_s_per_m: law.c as f32,
+        static_load_n: static_load as f32,
+        lift_off: law.lift_off.is_some(),
+        velocity_cutoff_hz: model_core::tyre::TyreParams::PAPER.velocity_cutoff_hz,
+    };
+    model_core::tyre::TyreParams {
+        stiffness: section.stiffness_n_per_m,
+        damping: section.damping_n_s_per_m,
+        static_load: section.static_load_n,
+        lift_off: u32::from(section.lift_off),
+        velocity_cutoff_hz: section.velocity_cutoff_hz,
+    }
+    .validate()
+    .map_err(|e| anyhow!("--tyre {element:?}: model-core rejects the tyre: {e:?}"))?;
+    Ok(section)
+}
+
+/// The text of `tyre.toml`: a comment saying where the values come from, then the `[tyre]`
+/// table.
+fn tyre_toml(section: &crate::config::TyreSection, element: &str, model: &Path) -> Result<String> {
+    #[derive(serde::Serialize)]
+    struct Table<'a> {
+        tyre: &'a crate::config::TyreSection,
+    }
+    let body = toml::to_string(&Table { tyre: section })?;
+    Ok(format!(
+        "# model-core's real-time tyre from element {element:?} of the model diagnosed from\n# {} (mil diagnose --tyre): paste this [tyre] table into a `mil sim` configuration.\n{body}",
+        model.display()
+    ))
 }
 
 /// Every input and output column the model names must be in the record.
@@ -137,6 +244,9 @@ impl DiagnoseOutput {
         ));
         for p in &self.plots {
             s.push_str(&format!("plot:          {}\n", p.display()));
+        }
+        if let Some(t) = &self.tyre {
+            s.push_str(&format!("tyre (model-core): {}\n", t.display()));
         }
         s
     }
@@ -439,4 +549,59 @@ fn frf(
     let cpath = dir.join("coherence.svg");
     mil_plots::xy_svg(&cpath, &coherence)?;
     Ok(vec![path, cpath])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tyre example's model with the given effects on its `tyre` element.
+    fn tyre_model(effects: &str) -> Model {
+        let text = format!(
+            "{}\n{effects}",
+            include_str!("../../diagnose/examples/tyre.toml")
+        );
+        Model::from_toml(&text).expect("model")
+    }
+
+    #[test]
+    fn the_diagnosed_tyre_becomes_model_cores_tyre() {
+        let m = tyre_model(
+            "[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\nparameters = { preload_n = 1668.5 }\n",
+        );
+        let t = tyre_section(&m, "tyre", None).expect("tyre");
+        assert_eq!(t.stiffness_n_per_m, 250.0e3);
+        assert_eq!(t.damping_n_s_per_m, 500.0);
+        assert_eq!(t.static_load_n, 1668.5);
+        assert!(t.lift_off);
+        // The file is a `[tyre]` table that a `mil sim` configuration reads back.
+        let text = tyre_toml(&t, "tyre", Path::new("tyre.toml")).expect("toml");
+        #[derive(serde::Deserialize)]
+        struct Table {
+            tyre: crate::config::TyreSection,
+        }
+        let back: Table = toml::from_str(&text).expect("parses");
+        assert_eq!(back.tyre, t);
+        // An explicit static load takes precedence.
+        let t2 = tyre_section(&m, "tyre", Some(1700.0)).expect("tyre");
+        assert_eq!(t2.static_load_n, 1700.0);
+    }
+
+    #[test]
+    fn a_tyre_model_core_cannot_run_is_refused_with_the_reason() {
+        let linear = tyre_model("");
+        let e = tyre_section(&linear, "tyre", None).expect_err("no static load");
+        assert!(e.to_string().contains("--tyre-static-load-n"), "{e}");
+        assert!(tyre_section(&linear, "tyre", Some(1667.7)).is_ok_and(|t| !t.lift_off));
+        let cubic = tyre_model(
+            "[[effect]]\neffect = \"cubic_stiffness\"\nelement = \"tyre\"\nparameters = { stiffness_n_per_m3 = 1e9 }\n",
+        );
+        let e = tyre_section(&cubic, "tyre", Some(1667.7)).expect_err("cubic");
+        assert!(e.to_string().contains("cubic_stiffness"), "{e}");
+        let e = tyre_section(&linear, "wheel", Some(1667.7)).expect_err("no element");
+        assert!(e.to_string().contains("suspension, tyre"), "{e}");
+        let mut negative = linear.clone();
+        negative.elements[1].law.k = -1.0;
+        assert!(tyre_section(&negative, "tyre", Some(1667.7)).is_err());
+    }
 }

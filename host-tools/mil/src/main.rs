@@ -136,6 +136,14 @@ enum Command {
         /// updated_model) instead of the summary.
         #[arg(long)]
         json: bool,
+        /// Also write the updated model's element ELEMENT as model-core's real-time tyre
+        /// (tyre.toml: the [tyre] table of a `mil sim` configuration; stiffness, damping,
+        /// static load and lift-off).
+        #[arg(long, value_name = "ELEMENT")]
+        tyre: Option<String>,
+        /// Static wheel load (N) for --tyre when the updated model has no lift-off.
+        #[arg(long, requires = "tyre")]
+        tyre_static_load_n: Option<f64>,
     },
     /// Validate a run configuration and report the first problem.
     Check {
@@ -317,6 +325,8 @@ fn main() -> Result<()> {
             data,
             out,
             json,
+            tyre,
+            tyre_static_load_n,
         } => {
             let bar = if json {
                 ProgressBar::hidden()
@@ -327,7 +337,15 @@ fn main() -> Result<()> {
                 )
             };
             bar.set_message("estimating states");
-            let request = mil::diagnose::DiagnoseRequest { model, data, out };
+            let request = mil::diagnose::DiagnoseRequest {
+                model,
+                data,
+                out,
+                tyre: tyre.map(|element| mil::diagnose::TyreExport {
+                    element,
+                    static_load_n: tyre_static_load_n,
+                }),
+            };
             let result = mil::diagnose::run_diagnose(&request, &|f, m| {
                 bar.set_position((f * 1000.0) as u64);
                 bar.set_message(m.to_string());

@@ -252,3 +252,57 @@ fn clear_errors_and_non_zero_exit() {
         "{err}"
     );
 }
+
+#[path = "../../diagnose/tests/common/quarter_car.rs"]
+mod quarter_car;
+
+/// `--tyre`: the quarter car diagnosed from 40 s of the simulated rig (tyre lift-off and an
+/// asymmetric damper hidden) gives model-core's real-time tyre, and the `[tyre]` table it
+/// writes makes the tyre example's `mil sim` configuration a valid run with the diagnosed
+/// tyre.
+#[test]
+fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("quarter_car.csv");
+    quarter_car::quarter_car_record(&quarter_car::track_road(40.0, 5), 5)
+        .write(&csv)
+        .unwrap();
+    let out = dir.path().join("out");
+    let model = diagnose_dir().join("examples/tyre.toml");
+    let o = mil(&[
+        "diagnose",
+        "--model",
+        text(&model),
+        "--data",
+        text(&csv),
+        "--out",
+        text(&out),
+        "--tyre",
+        "tyre",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("tyre (model-core):"), "{stdout}");
+    let tyre = std::fs::read_to_string(out.join("tyre.toml")).unwrap();
+    println!("{tyre}");
+    let table: toml::Table = toml::from_str(&tyre).unwrap();
+    let t = &table["tyre"];
+    let num = |k: &str| t[k].as_float().unwrap();
+    let weight = (quarter_car::M_S + quarter_car::M_U) * 9.81;
+    assert!((num("static_load_n") - weight).abs() < 0.01 * weight);
+    assert!((num("stiffness_n_per_m") - quarter_car::K_T).abs() < 0.03 * quarter_car::K_T);
+    assert_eq!(t["lift_off"].as_bool(), Some(true));
+    // The tyre example's run configuration with its [tyre] table replaced.
+    let sim_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim");
+    let example = std::fs::read_to_string(sim_dir.join("tyre.toml")).unwrap();
+    let (head, rest) = example.split_once("[tyre]").unwrap();
+    let (_, tail) = rest.split_once("[limits]").unwrap();
+    let config = format!("{head}{tyre}\n[limits]{tail}");
+    let c = mil::config::Config::from_toml(&config, &sim_dir).unwrap();
+    c.validate().unwrap();
+    assert_eq!(c.tyre.as_ref().map(|t| t.lift_off), Some(true));
+}
