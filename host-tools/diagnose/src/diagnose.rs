@@ -11,7 +11,7 @@
 //!    with a threshold-like parameter — gap, preload, delay, limits, Bouc-Wen shape — by a
 //!    grid over quantiles of the data, each grid point a linear fit, ranked on the start of
 //!    the fitting part holding [`GRID_EFFECTIVE_SAMPLES`] effectively independent rows; the
-//!    best grid point is then fitted on the whole fitting part). Candidates are fitted on
+//!    [`GRID_FINALISTS`] best grid points are then fitted on the whole fitting part). Candidates are fitted on
 //!    all cores ([`Options::threads`]); the result does not depend on the thread count.
 //! 4. **Selection** on the validation part by the Bayesian information criterion
 //!    `Δ = n_eff ln(SSE_candidate / SSE_current) + p ln(n_eff)` with `p` the candidate's
@@ -513,7 +513,15 @@ impl Context<'_> {
             1
         };
         let mut last = None;
-        for _ in 0..passes {
+        let mut used = Vec::new();
+        for pass in 0..passes {
+            // A pass whose contact masks are those of the previous pass would build the
+            // same regression and find the same coefficients: the fixed point is reached.
+            let keys = equation::contact_mask_keys(&model, self.st);
+            if pass > 0 && keys == used {
+                break;
+            }
+            used = keys;
             let sys = equation::build(&model, self.st, free, &self.weights);
             let sol = sys.solve(|t| self.is_fit(t));
             for (c, v) in free.iter().zip(&sol.theta) {
@@ -563,6 +571,11 @@ pub const GRID_EFFECTIVE_SAMPLES: f64 = 2000.0;
 /// precision of 2000 independent samples per output is ample; its cost then stops
 /// growing with the record.
 pub const REFINE_EFFECTIVE_SAMPLES: f64 = 2000.0;
+
+/// Grid values (the best on the prefix, see [`GRID_EFFECTIVE_SAMPLES`]) fitted on the
+/// whole fitting part, of which the best is kept: 2, so that a ranking on the prefix that
+/// differs in the last digits from the whole record's does not decide the value.
+pub const GRID_FINALISTS: usize = 2;
 
 /// A rough relative cost of fitting a candidate of `kind` (its grid size).
 fn cand_cost(kind: EffectKind) -> usize {
@@ -706,21 +719,13 @@ fn fit_candidate(
             }
             let mut free_r = base.free.clone();
             free_r.push(Coef::RebK(e));
-            let on = grid.unwrap_or(ctx);
-            let best_b = best_of(on, variants, &free).map(|f| (f, &free));
-            let best_r = best_of(on, reb, &free_r).map(|f| (f, &free_r));
+            let best_b = best_grid(ctx, grid, variants, &free);
+            let best_r = best_grid(ctx, grid, reb, &free_r);
             let best = match (best_b, best_r) {
-                (Some(a), Some(b)) => Some(if a.0.sse_fit <= b.0.sse_fit { a } else { b }),
+                (Some(a), Some(b)) => Some(if a.sse_fit <= b.sse_fit { a } else { b }),
                 (a, b) => a.or(b),
             };
-            return best.map(|(f, free)| {
-                let f = if grid.is_some() {
-                    ctx.fit(f.model, free)
-                } else {
-                    f
-                };
-                (f, added)
-            });
+            return best.map(|f| (f, added));
         }
         EffectKind::Backlash => {
             let absx: Vec<f64> = sig[e].x.iter().map(|v| v.abs()).collect();
@@ -822,11 +827,34 @@ fn fit_candidate(
             }
         }
     }
-    let best = match grid {
-        Some(g) if variants.len() > 1 => ctx.fit(best_of(g, variants, &free)?.model, &free),
-        _ => best_of(ctx, variants, &free)?,
-    };
-    Some((best, added))
+    best_grid(ctx, grid, variants, &free).map(|f| (f, added))
+}
+
+/// The best of `variants` fitted on `ctx`. With a `grid` context (a prefix of the record),
+/// the variants are ranked on it and the [`GRID_FINALISTS`] best are fitted on `ctx`.
+fn best_grid(
+    ctx: &Context<'_>,
+    grid: Option<&Context<'_>>,
+    variants: Vec<Model>,
+    free: &[Coef],
+) -> Option<Fit> {
+    match grid {
+        Some(g) if variants.len() > GRID_FINALISTS => {
+            let mut ranked: Vec<Fit> = variants
+                .into_iter()
+                .map(|m| g.fit(m, free))
+                .filter(|f| f.sse_fit.is_finite())
+                .collect();
+            ranked.sort_by(|a, b| a.sse_fit.total_cmp(&b.sse_fit));
+            let finalists = ranked
+                .into_iter()
+                .take(GRID_FINALISTS)
+                .map(|f| f.model)
+                .collect();
+            best_of(ctx, finalists, free)
+        }
+        _ => best_of(ctx, variants, free),
+    }
 }
 
 fn best_of(ctx: &Context<'_>, variants: Vec<Model>, free: &[Coef]) -> Option<Fit> {

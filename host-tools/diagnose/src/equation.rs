@@ -439,30 +439,7 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
         .map(|e| signals_memo(model, st, e, &inputs))
         .collect();
     // Lift-off contact masks from the current law, with their content keys.
-    let masks: Vec<Option<([u64; 2], Vec<f64>)>> = model
-        .elements
-        .iter()
-        .zip(&sigs)
-        .map(|(e, (_, s))| {
-            e.law.lift_off.map(|p| {
-                let (x, rest) = s.split_at(len);
-                let (v, z) = rest.split_at(len);
-                let m: Vec<f64> = x
-                    .iter()
-                    .zip(v)
-                    .zip(z)
-                    .map(|((&x, &v), &z)| {
-                        if p + e.law.force_unclipped(x, v, z) > 0.0 {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect();
-                (signal::fingerprint(&m, 3), m)
-            })
-        })
-        .collect();
+    let masks = contact_masks(model, &sigs, len);
     let is_free = |c: Coef| free.contains(&c);
     // The regressor of an element coefficient over the record (contact mask applied).
     let basis = |c: Coef| -> Vec<f64> {
@@ -651,6 +628,60 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
         sample,
         dof,
     }
+}
+
+/// Per element with lift-off: the contact mask (1 in contact, 0 lifted off) of its current
+/// law along its signals `sigs` (see `signals_memo`), with the mask's content key.
+fn contact_masks(
+    model: &Model,
+    sigs: &[([u64; 2], Arc<Vec<f64>>)],
+    len: usize,
+) -> Vec<Option<([u64; 2], Vec<f64>)>> {
+    model
+        .elements
+        .iter()
+        .zip(sigs)
+        .map(|(e, (_, s))| {
+            e.law.lift_off.map(|p| {
+                let (x, rest) = s.split_at(len);
+                let (v, z) = rest.split_at(len);
+                let m: Vec<f64> = x
+                    .iter()
+                    .zip(v)
+                    .zip(z)
+                    .map(|((&x, &v), &z)| {
+                        if p + e.law.force_unclipped(x, v, z) > 0.0 {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                (signal::fingerprint(&m, 3), m)
+            })
+        })
+        .collect()
+}
+
+/// The content keys of the lift-off contact masks [`build`] would use for `model` (`None`
+/// per element without lift-off): two models with equal keys and equal coefficients give
+/// the same regression.
+pub fn contact_mask_keys(model: &Model, st: &States) -> Vec<Option<[u64; 2]>> {
+    let len = st.q.first().map_or(0, Vec::len);
+    let inputs: Vec<([u64; 2], Arc<Vec<f64>>)> = model
+        .inputs
+        .iter()
+        .zip(&st.inputs_raw)
+        .enumerate()
+        .map(|(j, (inp, raw))| input_memo(st, inp, j, raw))
+        .collect();
+    let sigs: Vec<([u64; 2], Arc<Vec<f64>>)> = (0..model.elements.len())
+        .map(|e| signals_memo(model, st, e, &inputs))
+        .collect();
+    contact_masks(model, &sigs, len)
+        .into_iter()
+        .map(|m| m.map(|(k, _)| k))
+        .collect()
 }
 
 /// Key words of an optional parameter.

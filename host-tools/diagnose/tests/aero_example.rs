@@ -9,6 +9,9 @@
 //! The workflow must recalibrate, name the bump stop on the front suspension with its gap
 //! and stiffness, and shrink the gap.
 
+mod common;
+
+use common::noisy;
 use mil_diagnose::{diagnose, EffectKind, Model, Options, Record};
 use mil_rig::effects::{BumpStop, Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
@@ -52,14 +55,6 @@ impl IdealInterface for DownForce {
             lower_bound_n: vec![f64::NEG_INFINITY; 2],
         })
     }
-}
-
-fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
-    let rms = (clean.iter().map(|v| v * v).sum::<f64>() / clean.len() as f64).sqrt();
-    clean
-        .iter()
-        .map(|v| v + fraction * rms * rng.normal())
-        .collect()
 }
 
 fn half_car_record(seed: u64) -> Record {

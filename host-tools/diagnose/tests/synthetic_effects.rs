@@ -74,15 +74,6 @@ fn seed(n: u64) -> u64 {
         .unwrap_or(0)
 }
 
-/// Adds white noise of `fraction` × the signal's RMS.
-fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
-    let rms = (clean.iter().map(|v| v * v).sum::<f64>() / clean.len() as f64).sqrt();
-    clean
-        .iter()
-        .map(|v| v + fraction * rms * rng.normal())
-        .collect()
-}
-
 /// Simulates the oscillator with `effects` driven by the force `applied` (N); the record
 /// holds `recorded` (N, the commanded force) and the displacement, both with noise.
 fn force_record(effects: Effects, applied: &[f64], recorded: &[f64], seed: u64) -> Record {

@@ -9,6 +9,7 @@
 use mil_diagnose::{diagnose, Diagnosis, EffectKind, Model, Options, Record};
 use mil_rig::effects::{Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
+use mil_rig::rng::SplitMix64;
 use mil_rig::specimen::{PlacedElement, Specimen};
 
 /// Oscillator mass (kg).
@@ -127,4 +128,13 @@ pub fn run(name: &str, model: &Model, record: &Record) -> Diagnosis {
 /// The named effects, in order.
 pub fn names(d: &Diagnosis) -> Vec<EffectKind> {
     d.named.iter().map(|n| n.named.effect).collect()
+}
+
+/// Adds white noise of `fraction` × the signal's RMS.
+pub fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
+    let rms = (clean.iter().map(|v| v * v).sum::<f64>() / clean.len() as f64).sqrt();
+    clean
+        .iter()
+        .map(|v| v + fraction * rms * rng.normal())
+        .collect()
 }
