@@ -428,16 +428,7 @@ pub struct System {
 pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> System {
     let n = model.n();
     let len = st.q.first().map_or(0, Vec::len);
-    let inputs: Vec<([u64; 2], Arc<Vec<f64>>)> = model
-        .inputs
-        .iter()
-        .zip(&st.inputs_raw)
-        .enumerate()
-        .map(|(j, (inp, raw))| input_memo(st, inp, j, raw))
-        .collect();
-    let sigs: Vec<([u64; 2], Arc<Vec<f64>>)> = (0..model.elements.len())
-        .map(|e| signals_memo(model, st, e, &inputs))
-        .collect();
+    let (inputs, sigs) = memo_inputs_and_signals(model, st);
     // Lift-off contact masks from the current law, with their content keys.
     let masks = contact_masks(model, &sigs, len);
     let is_free = |c: Coef| free.contains(&c);
@@ -668,20 +659,30 @@ fn contact_masks(
 /// the same regression.
 pub fn contact_mask_keys(model: &Model, st: &States) -> Vec<Option<[u64; 2]>> {
     let len = st.q.first().map_or(0, Vec::len);
-    let inputs: Vec<([u64; 2], Arc<Vec<f64>>)> = model
+    let (_, sigs) = memo_inputs_and_signals(model, st);
+    contact_masks(model, &sigs, len)
+        .into_iter()
+        .map(|m| m.map(|(k, _)| k))
+        .collect()
+}
+
+/// A memoised vector under its key.
+type Keyed = ([u64; 2], Arc<Vec<f64>>);
+
+/// The model's inputs (see `input_memo`) and its elements' signals (see `signals_memo`),
+/// memoised in [`States::cache`].
+fn memo_inputs_and_signals(model: &Model, st: &States) -> (Vec<Keyed>, Vec<Keyed>) {
+    let inputs: Vec<Keyed> = model
         .inputs
         .iter()
         .zip(&st.inputs_raw)
         .enumerate()
         .map(|(j, (inp, raw))| input_memo(st, inp, j, raw))
         .collect();
-    let sigs: Vec<([u64; 2], Arc<Vec<f64>>)> = (0..model.elements.len())
+    let sigs = (0..model.elements.len())
         .map(|e| signals_memo(model, st, e, &inputs))
         .collect();
-    contact_masks(model, &sigs, len)
-        .into_iter()
-        .map(|m| m.map(|(k, _)| k))
-        .collect()
+    (inputs, sigs)
 }
 
 /// Key words of an optional parameter.
