@@ -167,11 +167,9 @@ def main():
             cwd=root, check=True,
         )
 
+    # With port 0 QEMU listens on a port the kernel picks and names it on stderr (binding
+    # port 0 here and handing the port to QEMU races with other processes starting).
     port = args.port
-    if port == 0:
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            port = s.getsockname()[1]
     cmd = [
         "timeout", "--kill-after=10", str(args.timeout),
         "qemu-system-arm", "-machine", "netduinoplus2", "-nographic",
@@ -183,6 +181,13 @@ def main():
     cmd += ["-kernel", args.elf]
     print(" ".join(cmd), flush=True)
     qemu = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    early_stderr = b""
+    if port == 0:
+        mark = b"waiting for connection on: disconnected:tcp:127.0.0.1:"
+        line = qemu.stderr.readline()
+        early_stderr += line
+        check(mark in line, f"QEMU names its port: {line!r}")
+        port = int(line.split(mark, 1)[1].split(b",", 1)[0])
     sock = None
     for _ in range(200):
         try:
@@ -203,7 +208,7 @@ def main():
         qemu.kill()
         out, err = qemu.communicate()
     sys.stdout.write(out.decode(errors="replace"))
-    sys.stderr.write(err.decode(errors="replace"))
+    sys.stderr.write((early_stderr + err).decode(errors="replace"))
     check(qemu.returncode == 0, f"firmware exited with status {qemu.returncode}")
     report = out.decode(errors="replace")
     check("mil-firmware report:" in report, "final report printed")

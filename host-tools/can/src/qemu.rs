@@ -1,7 +1,7 @@
 //! Starting the QEMU build of the firmware.
 
 use std::io::{self, Read};
-use std::net::{Ipv4Addr, SocketAddr, TcpListener};
+use std::net::{Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
@@ -78,8 +78,16 @@ pub struct QemuOutput {
 
 /// A running QEMU `netduinoplus2` with the firmware; killed on drop.
 ///
-/// Its USART1 is `-serial tcp:127.0.0.1:PORT,server=on,wait=on,nodelay=on` on a free port
-/// (found by binding port 0); stdout and stderr are captured ([`Qemu::output`]).
+/// Its USART1 is `-serial tcp:127.0.0.1:0,server=on,wait=on,nodelay=on`: QEMU listens on a
+/// port the kernel picks and names it on stderr ([`listening_port`]); stdout and stderr are
+/// captured ([`Qemu::output`]).
+///
+/// Why QEMU picks the port: finding a free port by binding port 0 and releasing it, then
+/// handing it to QEMU, races with any process forked in between (the test harness starts
+/// several QEMUs at once). A child forked while the probe listener was open holds a copy
+/// until it execs; a connection made to that copy is reset when it closes, while QEMU, bound
+/// a moment later, waits for a connection that never comes (seen about once in 150 starts
+/// with six starting at once).
 #[derive(Debug)]
 pub struct Qemu {
     child: Child,
@@ -111,9 +119,6 @@ impl Qemu {
     /// QEMU could not be started (not installed: `apt-get install -y qemu-system-arm`), the
     /// connection or the handshake failed; QEMU's stderr is in the message.
     pub fn spawn(elf: &Path, options: &QemuOptions) -> io::Result<(Qemu, SlcanTcp)> {
-        let port = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?
-            .local_addr()?
-            .port();
         let mut cmd = Command::new(&options.program);
         cmd.args([
             "-machine",
@@ -124,7 +129,7 @@ impl Qemu {
         ])
         .args(["-semihosting-config", "enable=on,target=native"])
         .arg("-serial")
-        .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"));
+        .arg("tcp:127.0.0.1:0,server=on,wait=on,nodelay=on");
         if let Some(shift) = options.icount_shift {
             let sleep = if options.icount_sleep {
                 ""
@@ -159,16 +164,21 @@ impl Qemu {
         }
         let mut qemu = Qemu {
             child,
-            port,
+            port: 0,
             stdout,
             stderr,
             readers,
         };
-        let addr = SocketAddr::from((Ipv4Addr::LOCALHOST, port));
-        let link = SlcanTcp::connect(addr, options.open_timeout).and_then(|mut link| {
-            link.open(options.open_timeout)?;
+        let deadline = Instant::now() + options.open_timeout;
+        let link = qemu.wait_for_port(deadline).and_then(|port| {
+            qemu.port = port;
+            let addr = SocketAddr::from((Ipv4Addr::LOCALHOST, port));
+            let mut link =
+                SlcanTcp::connect(addr, deadline.saturating_duration_since(Instant::now()))?;
+            link.open(deadline.saturating_duration_since(Instant::now()))?;
             Ok(link)
         });
+        let port = qemu.port;
         match link {
             Ok(link) => Ok((qemu, link)),
             Err(e) => {
@@ -179,6 +189,27 @@ impl Qemu {
                     format!("QEMU on port {port}: {e}; stderr: {}", out.stderr.trim()),
                 ))
             }
+        }
+    }
+
+    /// Waits until QEMU names its listening port on stderr.
+    fn wait_for_port(&mut self, deadline: Instant) -> io::Result<u16> {
+        loop {
+            if let Some(port) = listening_port(&self.output().stderr) {
+                return Ok(port);
+            }
+            if let Some(status) = self.child.try_wait()? {
+                return Err(io::Error::other(format!(
+                    "QEMU exited ({status}) before listening"
+                )));
+            }
+            if Instant::now() >= deadline {
+                return Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    "QEMU did not say which port it listens on",
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(5));
         }
     }
 
@@ -230,11 +261,42 @@ impl Qemu {
     }
 }
 
+/// The port in QEMU's `QEMU waiting for connection on: disconnected:tcp:127.0.0.1:PORT,...`
+/// line, if `stderr` holds it.
+pub fn listening_port(stderr: &str) -> Option<u16> {
+    const MARK: &str = "waiting for connection on: disconnected:tcp:127.0.0.1:";
+    let rest = &stderr[stderr.find(MARK)? + MARK.len()..];
+    let digits = rest.find(|c: char| !c.is_ascii_digit())?;
+    rest[..digits].parse().ok().filter(|&p| p != 0)
+}
+
 impl Drop for Qemu {
     fn drop(&mut self) {
         if let Ok(None) = self.child.try_wait() {
             let _ = self.child.kill();
             let _ = self.child.wait();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::listening_port;
+
+    #[test]
+    fn the_port_comes_from_qemus_waiting_line() {
+        let line = "qemu-system-arm: -serial tcp:127.0.0.1:0,server=on,wait=on,nodelay=on: info: \
+                    QEMU waiting for connection on: disconnected:tcp:127.0.0.1:34363,server=on\n";
+        assert_eq!(listening_port(line), Some(34363));
+        // Not yet complete, or not there.
+        assert_eq!(
+            listening_port("QEMU waiting for connection on: disconnected:tcp:127.0.0.1:343"),
+            None
+        );
+        assert_eq!(listening_port("qemu-system-arm: some error\n"), None);
+        assert_eq!(
+            listening_port("waiting for connection on: disconnected:tcp:127.0.0.1:0,server=on"),
+            None
+        );
     }
 }

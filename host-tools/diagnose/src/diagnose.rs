@@ -902,8 +902,8 @@ fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) 
 ///
 /// # Errors
 /// Missing columns, a record too short to split, displacement outputs that do not
-/// determine every DOF (needed by the equation-error formulation this increment uses for
-/// recalibration and selection).
+/// determine every DOF's position (the equation-error recalibration and selection estimate
+/// every DOF's states from them; the error names the undetermined DOFs).
 pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Diagnosis> {
     let start = std::time::Instant::now();
     diagnose_with_progress(model, record, options, &|_, m: &str| {

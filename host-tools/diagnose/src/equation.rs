@@ -84,16 +84,74 @@ pub fn displacement_map(model: &Model) -> Option<(DMatrix<f64>, Vec<usize>)> {
     Some((pinv, rows.into_iter().map(|r| r.0).collect()))
 }
 
+/// The DOFs (names) whose positions the displacement outputs do not determine: those with
+/// a component outside the span of the outputs' coefficient rows (empty if they determine
+/// every DOF).
+pub fn undetermined_dofs(model: &Model) -> Vec<String> {
+    let n = model.n();
+    let rows: Vec<Vec<f64>> = model
+        .outputs
+        .iter()
+        .filter_map(|o| match (&o.target, o.kind) {
+            (Target::Motion(c), OutputKind::Displacement) => {
+                Some(c.iter().map(|v| v * o.gain).collect())
+            }
+            _ => None,
+        })
+        .filter(|r: &Vec<f64>| r.iter().all(|v| v.is_finite()))
+        .collect();
+    // An orthonormal basis of the rows' span (Gram–Schmidt, twice for stability), then
+    // each DOF's unit vector checked against it.
+    let scale = rows
+        .iter()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()))
+        .max(f64::MIN_POSITIVE);
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for r in &rows {
+        let mut v: Vec<f64> = r.iter().map(|x| x / scale).collect();
+        for _ in 0..2 {
+            for b in &basis {
+                let d: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
+                v.iter_mut().zip(b).for_each(|(x, y)| *x -= d * y);
+            }
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1e-6 {
+            basis.push(v.iter().map(|x| x / norm).collect());
+        }
+    }
+    (0..n)
+        .filter(|&j| {
+            let in_span: f64 = basis.iter().map(|b| b[j] * b[j]).sum();
+            in_span < 1.0 - 1e-9
+        })
+        .map(|j| model.dofs[j].clone())
+        .collect()
+}
+
 /// Estimates the states from the displacement outputs (see the module documentation).
 ///
 /// # Errors
 /// The displacement outputs do not determine every DOF, or a column is missing.
 pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
     let (pinv, idx) = displacement_map(model).ok_or_else(|| {
-        Error::Diagnose(
-            "the equation-error formulation needs displacement outputs that determine every DOF"
-                .into(),
-        )
+        let missing = undetermined_dofs(model);
+        Error::Diagnose(format!(
+            "the diagnosis estimates every DOF's position, velocity and acceleration from the \
+             displacement outputs, and they do not determine the position of {}: add a \
+             measured displacement of {} (an [[output]] with kind = \"displacement\")",
+            if missing.is_empty() {
+                "every DOF".to_string()
+            } else {
+                missing
+                    .iter()
+                    .map(|d| format!("`{d}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            },
+            if missing.len() == 1 { "it" } else { "each" }
+        ))
     })?;
     let n = model.n();
     let len = record.len();
@@ -957,6 +1015,34 @@ mod tests {
         let x: Vec<f64> = sim.outputs[0].iter().map(|v| v + 1e-6 * rnd()).collect();
         let rec = Record::new(&t, vec!["force".into(), "x".into()], vec![force, x]).expect("rec");
         (model, rec)
+    }
+
+    #[test]
+    fn the_dofs_the_displacement_outputs_leave_undetermined_are_named() {
+        let text = include_str!("../examples/tyre.toml");
+        let model = Model::from_toml(text).expect("tyre.toml");
+        assert!(undetermined_dofs(&model).is_empty());
+        assert!(displacement_map(&model).is_some());
+        // The hub measured by an accelerometer only: its position is not determined.
+        let hub = "column = \"hub\"\nkind = \"displacement\"";
+        assert!(text.contains(hub));
+        let model =
+            Model::from_toml(&text.replace(hub, "column = \"hub\"\nkind = \"acceleration\""))
+                .expect("model");
+        assert_eq!(undetermined_dofs(&model), ["x_u"]);
+        let t: Vec<f64> = (0..100).map(|i| f64::from(i) * 1e-3).collect();
+        let cols = ["road", "body", "hub"];
+        let rec = Record::new(
+            &t,
+            cols.iter().map(|c| c.to_string()).collect(),
+            vec![vec![0.0; 100]; 3],
+        )
+        .expect("record");
+        let Err(err) = estimate_states(&model, &rec) else {
+            panic!("the hub's position is not determined: an error")
+        };
+        let err = err.to_string();
+        assert!(err.contains("`x_u`") && !err.contains("`x_s`"), "{err}");
     }
 
     #[test]

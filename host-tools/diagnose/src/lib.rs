@@ -15,6 +15,15 @@
 //!   output-error refinement, the evidence and the report ([`Diagnosis`], [`JsonReport`]).
 //! - [`signal`]: filters, differentiation, spectra, error figures.
 //!
+//! What a record must hold: every input's column, and displacement outputs that determine
+//! every DOF's position (one per DOF, or combinations such as points that together fix
+//! them), because recalibration and candidate selection estimate each DOF's position,
+//! velocity and acceleration from them ([`equation`]). That is what a rig measures (the
+//! actuators' LVDTs, laser or string-pot displacements); a DOF seen only by an
+//! accelerometer or a load cell is refused with an error that names it. Velocity,
+//! acceleration and force outputs are compared too, in the gap and the output-error
+//! refinement.
+//!
 //! SI units throughout. Sign convention of an element (as in `mil-rig`): its compression
 //! `x = pos(lower) − pos(upper)` (m) is positive when its ends approach, `v = dx/dt`, and its
 //! force `F` (N) pushes the ends apart (positive in compression).

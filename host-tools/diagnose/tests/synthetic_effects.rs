@@ -32,38 +32,12 @@
 mod common;
 
 use common::*;
-use mil_diagnose::{Diagnosis, EffectKind, Model, Record};
+use mil_diagnose::{Diagnosis, EffectKind, Record};
 use mil_rig::effects::{
-    AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, Element,
-    FreePlay,
+    AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, FreePlay,
 };
-use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
 use mil_rig::rng::SplitMix64;
-use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
-
-/// Measurement noise on the excitation column (fraction of its clean RMS).
-const INPUT_NOISE: f64 = 0.005;
-/// Measurement noise on the displacement column (fraction of its clean RMS).
-const OUTPUT_NOISE: f64 = 0.007;
-
-/// No actuator force (the specimen is driven by its road input only).
-struct NoForce;
-
-impl IdealInterface for NoForce {
-    fn forces(&self, _y: &[f64], _yd: &[f64], _road: &[f64], _rr: &[f64], forces: &mut [f64]) {
-        forces[0] = 0.0;
-    }
-    fn affine(&self) -> Option<AffineInterface> {
-        Some(AffineInterface {
-            offset_n: vec![0.0],
-            position_n_per_m: vec![vec![0.0]],
-            velocity_n_s_per_m: vec![vec![0.0]],
-            road_n_per_m: vec![vec![0.0]],
-            road_rate_n_s_per_m: vec![vec![0.0]],
-            lower_bound_n: vec![f64::NEG_INFINITY],
-        })
-    }
-}
+use mil_rig::specimen::GRAVITY_M_PER_S2;
 
 /// The record seed `n`, shifted by the environment variable `DIAGNOSE_SEED_OFFSET` (to
 /// re-run the tests on other records).
@@ -77,14 +51,8 @@ fn seed(n: u64) -> u64 {
 /// Simulates the oscillator with `effects` driven by the force `applied` (N); the record
 /// holds `recorded` (N, the commanded force) and the displacement, both with noise.
 fn force_record(effects: Effects, applied: &[f64], recorded: &[f64], seed: u64) -> Record {
-    let mut plant = oscillator_plant(effects);
+    let x = oscillator_response(effects, applied);
     let dt = 1.0 / FS;
-    let mut x = Vec::with_capacity(applied.len());
-    for i in 0..applied.len() {
-        x.push(plant.state()[0]);
-        let next = applied[(i + 1).min(applied.len() - 1)];
-        plant.advance(dt, &[0.0], &[applied[i]], &[next]);
-    }
     let mut rng = SplitMix64::new(seed ^ 0xABCD);
     let t: Vec<f64> = (0..applied.len()).map(|i| i as f64 * dt).collect();
     let f = noisy(recorded, INPUT_NOISE, &mut rng);
@@ -291,19 +259,7 @@ fn hidden_input_delay_is_named() {
     // The force acts 6.5 ms after it is logged (transport delay of a drive).
     let tau = 6.5e-3;
     let f = noise_force(seed(15));
-    let shift = tau * FS;
-    let applied: Vec<f64> = (0..f.len())
-        .map(|i| {
-            let s = i as f64 - shift;
-            if s <= 0.0 {
-                f[0]
-            } else {
-                let j = s.floor() as usize;
-                let w = s - j as f64;
-                f[j] * (1.0 - w) + f[(j + 1).min(f.len() - 1)] * w
-            }
-        })
-        .collect();
+    let applied = delayed(&f, tau);
     let record = force_record(Effects::default(), &applied, &f, seed(15));
     let d = run("input delay (noise)", &oscillator_model(), &record);
     assert_eq!(names(&d), [EffectKind::InputDelay]);
@@ -319,7 +275,7 @@ fn hidden_input_saturation_is_named() {
     // The drive clips the commanded force at ±1.6 × its RMS (about 11 % of the samples).
     let limit = 1.6 * FORCE_RMS;
     let f = noise_force(seed(16));
-    let applied: Vec<f64> = f.iter().map(|v| v.max(-limit).min(limit)).collect();
+    let applied = clipped(&f, limit);
     let record = force_record(Effects::default(), &applied, &f, seed(16));
     let d = run("saturation (noise)", &oscillator_model(), &record);
     assert_eq!(names(&d), [EffectKind::Saturation]);
@@ -339,12 +295,7 @@ fn hidden_input_rate_limit_is_named() {
     // of about 4.3 kN/s).
     let rate = 6000.0;
     let f = noise_force(seed(17));
-    let step = rate / FS;
-    let mut applied = f.clone();
-    for i in 1..applied.len() {
-        let prev = applied[i - 1];
-        applied[i] = applied[i].max(prev - step).min(prev + step);
-    }
+    let applied = rate_limited(&f, rate);
     let record = force_record(Effects::default(), &applied, &f, seed(17));
     let d = run("rate limit (noise)", &oscillator_model(), &record);
     assert_eq!(names(&d), [EffectKind::RateLimit]);
@@ -407,10 +358,6 @@ fn hidden_friction_and_cubic_stiffness_are_both_named() {
 
 // --- Lift-off: a mass on a tyre spring over a track-like road -------------------------
 
-const WHEEL_MASS: f64 = 250.0;
-const TYRE_K: f64 = 1.5e5;
-const TYRE_C: f64 = 1500.0;
-
 /// A track-like road (m): a random profile (pink, 0.5–20 Hz, 2 mm RMS) with a 25 mm
 /// half-sine bump of 100 ms every 1.3 s.
 fn track_road(seed: u64) -> Vec<f64> {
@@ -429,52 +376,16 @@ fn track_road(seed: u64) -> Vec<f64> {
 }
 
 fn lift_off_record(road: &[f64], seed: u64) -> Record {
-    let g = GRAVITY_M_PER_S2;
-    let tyre = Element::linear(TYRE_K, TYRE_C)
-        .with_preload(WHEEL_MASS * g)
-        .with_effects(Effects {
-            lift_off: true,
-            ..Effects::default()
-        });
-    let specimen = Specimen {
-        dofs: vec!["x".into()],
-        mass: vec![vec![WHEEL_MASS]],
-        static_force: vec![-WHEEL_MASS * g],
-        elements: vec![PlacedElement {
-            name: "tyre".into(),
-            element: tyre,
-            // Compression: the road rising towards the mass.
-            dof_coefficients: vec![-1.0],
-            input_coefficients: vec![1.0],
-        }],
-        inputs: vec!["road".into()],
-        attachments: vec![vec![1.0]],
-    };
-    let mut plant = Plant::with_ideal_interface(specimen, Box::new(NoForce), 1e-4).expect("plant");
-    let dt = 1.0 / FS;
-    let mut x = Vec::with_capacity(road.len());
-    for i in 0..road.len() {
-        x.push(plant.state()[0]);
-        let next = road[(i + 1).min(road.len() - 1)];
-        plant.advance(dt, &[0.0], &[road[i]], &[next]);
-    }
-    let airborne = (1..x.len())
-        .filter(|&i| {
-            let (xe, ve) = (
-                road[i] - x[i],
-                (road[i] - x[i] - road[i - 1] + x[i - 1]) * FS,
-            );
-            WHEEL_MASS * g + TYRE_K * xe + TYRE_C * ve < 0.0
-        })
-        .count();
+    let (x, pulling) = wheel_response(road, true);
     let (xmin, xmax) = x
         .iter()
         .fold((f64::MAX, f64::MIN), |a, v| (a.0.min(*v), a.1.max(*v)));
     println!("x in [{xmin:.4}, {xmax:.4}] m");
     println!(
         "lift-off record: tyre unloaded in {:.1} % of the samples",
-        100.0 * airborne as f64 / x.len() as f64
+        100.0 * pulling
     );
+    let dt = 1.0 / FS;
     let mut rng = SplitMix64::new(seed ^ 0xABCD);
     let t: Vec<f64> = (0..road.len()).map(|i| i as f64 * dt).collect();
     let w = noisy(road, INPUT_NOISE, &mut rng);
@@ -485,34 +396,7 @@ fn lift_off_record(road: &[f64], seed: u64) -> Record {
 #[test]
 fn hidden_lift_off_is_named() {
     let record = lift_off_record(&track_road(seed(19)), seed(19));
-    // The mass is right (a displacement-driven record fixes only k/m and c/m), the tyre's
-    // stiffness −12 % and damping +15 % off.
-    let model = Model::from_toml(&format!(
-        r#"
-name = "wheel on tyre"
-[[dof]]
-name = "x"
-mass = {m}
-[[input]]
-name = "road"
-kind = "displacement"
-column = "road"
-[[element]]
-name = "tyre"
-upper = "x"
-lower = "road"
-stiffness_n_per_m = {k}
-damping_n_s_per_m = {c}
-[[output]]
-column = "x"
-kind = "displacement"
-of = "x"
-"#,
-        m = WHEEL_MASS,
-        k = TYRE_K * 0.88,
-        c = TYRE_C * 1.15
-    ))
-    .expect("model");
+    let model = wheel_model();
     let d = run("lift-off (track-like road)", &model, &record);
     assert_eq!(names(&d), [EffectKind::LiftOff]);
     // The preload is the static wheel load m g: within 10 %.
