@@ -1266,6 +1266,56 @@ pub fn diagnose_with_progress(
                 let mut free_now = stages[kept - 1].0.free.clone();
                 let mut added_of: Vec<usize> = stages[..kept].iter().map(|s| s.1).collect();
                 log(0.92, "backward elimination by simulation");
+                // The model without effect `i`, refined by output error: `(model, covariance,
+                // validation residuals, free coefficients)`.
+                let without =
+                    |updated: &Model, free_now: &[Coef], what: EffectKind, target: &str| {
+                        let mut m_wo = updated.clone();
+                        if what.on_input() {
+                            if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
+                                inp.law.remove(what);
+                            }
+                        } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target)
+                        {
+                            el.law.remove(what);
+                        }
+                        let coefs_with = effect_coefs(updated);
+                        let coefs_wo = effect_coefs(&m_wo);
+                        let free_wo: Vec<Coef> = free_now
+                            .iter()
+                            .copied()
+                            .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
+                            .collect();
+                        refine_output_error(
+                            &m_wo,
+                            &free_wo,
+                            record,
+                            &measured,
+                            fit_end,
+                            (&q0, &qd0),
+                            threads,
+                        )
+                        .and_then(|(m2, pc)| {
+                            let r = val_res(&m2).filter(|r| sse(r).is_finite())?;
+                            Some((m2, pc, r, free_wo))
+                        })
+                    };
+                // Every removal from the final model, refined concurrently; they stay valid
+                // until an effect is dropped (which changes the model the rest start from).
+                let effects: Vec<(EffectKind, String)> = named
+                    .iter()
+                    .map(|n| (n.named.effect, n.named.element.clone()))
+                    .collect();
+                let mut speculative: Vec<Option<_>> = parallel::map(
+                    &effects,
+                    threads,
+                    |(what, target)| without(&updated, &free_now, *what, target),
+                    |_, _| {},
+                )
+                .into_iter()
+                .map(Some)
+                .collect();
+                let mut dropped_any = false;
                 for i in (0..named.len()).rev() {
                     // (Removing the last effect gives the previous stage's structure, but
                     // refined from a different start: Levenberg–Marquardt from the previous
@@ -1286,34 +1336,11 @@ pub fn diagnose_with_progress(
                         (var.is_finite() && var > 0.0).then(|| v * v / var)
                     });
                     let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
-                    let mut m_wo = updated.clone();
-                    if what.on_input() {
-                        if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
-                            inp.law.remove(what);
-                        }
-                    } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target) {
-                        el.law.remove(what);
-                    }
-                    let coefs_with = effect_coefs(&updated);
-                    let coefs_wo = effect_coefs(&m_wo);
-                    let free_wo: Vec<Coef> = free_now
-                        .iter()
-                        .copied()
-                        .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
-                        .collect();
-                    let Some((m2, pc, r_wo)) = refine_output_error(
-                        &m_wo,
-                        &free_wo,
-                        record,
-                        &measured,
-                        fit_end,
-                        (&q0, &qd0),
-                        threads,
-                    )
-                    .and_then(|(m2, pc)| {
-                        let r = val_res(&m2).filter(|r| sse(r).is_finite())?;
-                        Some((m2, pc, r))
-                    }) else {
+                    let refined_without = match speculative.get_mut(i).and_then(Option::take) {
+                        Some(r) if !dropped_any => r,
+                        _ => without(&updated, &free_now, what, &target),
+                    };
+                    let Some((m2, pc, r_wo, free_wo)) = refined_without else {
                         continue;
                     };
                     let n_eff = (r_wo.len() as f64 / signal::correlation_time(&r_wo)).max(2.0);
@@ -1337,6 +1364,7 @@ pub fn diagnose_with_progress(
                         free_now = free_wo;
                         (cov_params, cov) = pc;
                         prev = Some(r_wo);
+                        dropped_any = true;
                     }
                 }
             }

@@ -135,7 +135,7 @@ struct CacheMap {
 
 impl LowpassCache {
     /// A cache for the low-pass at `fc_hz` (Hz) of signals sampled every `dt` (s), whose
-    /// [`LowpassCache::kept`] results are taken at the sample indices `keep`.
+    /// [`LowpassCache::kept_key`] results are taken at the sample indices `keep`.
     pub fn new(fc_hz: f64, dt: f64, keep: Vec<usize>) -> Self {
         Self {
             fc_hz,
@@ -145,7 +145,7 @@ impl LowpassCache {
         }
     }
 
-    /// The sample indices of [`LowpassCache::kept`] results.
+    /// The sample indices of [`LowpassCache::kept_key`] results.
     pub fn keep(&self) -> &[usize] {
         &self.keep
     }
@@ -156,7 +156,7 @@ impl LowpassCache {
 
     /// The vector memoised under `key`, made by `f` on a miss (a key from
     /// [`fingerprint_words`] of what determines the vector; keys of [`LowpassCache::full`]
-    /// and [`LowpassCache::kept`] are content fingerprints with salts 1 and 2).
+    /// are content fingerprints with salt 1).
     pub fn memo_key(
         &self,
         key: [u64; 2],
@@ -191,13 +191,9 @@ impl LowpassCache {
         self.memo(x, 1, || lowpass_zero_phase(x, self.fc_hz, self.dt))
     }
 
-    /// [`lowpass_zero_phase`] of `x` at the sample indices [`LowpassCache::keep`].
-    pub fn kept(&self, x: &[f64]) -> std::sync::Arc<Vec<f64>> {
-        self.memo(x, 2, || self.lowpass_kept(x))
-    }
-
-    /// [`LowpassCache::kept`] of the signal `x()` memoised under `key` (see
-    /// [`LowpassCache::memo_key`]): the signal is made only on a miss.
+    /// [`lowpass_zero_phase`] of the signal `x()` at the sample indices
+    /// [`LowpassCache::keep`], memoised under `key` (see [`LowpassCache::memo_key`]): the
+    /// signal is made only on a miss.
     pub fn kept_key(
         &self,
         key: [u64; 2],
