@@ -232,6 +232,7 @@
 extern crate std;
 
 pub mod application;
+pub mod calibration;
 pub mod config;
 pub mod link;
 pub mod params;
