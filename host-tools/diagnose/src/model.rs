@@ -304,7 +304,11 @@ impl Model {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_toml(&text).map_err(|e| Error::Model(format!("{}: {e}", path.display())))
+        Self::from_toml(&text).map_err(|e| match e {
+            // Keep one "model:" prefix: the file name goes after it.
+            Error::Model(m) => Error::Model(format!("{}: {m}", path.display())),
+            other => other,
+        })
     }
 
     /// Validates a parsed model file.

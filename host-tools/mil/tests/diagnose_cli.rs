@@ -306,3 +306,27 @@ fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
     c.validate().unwrap();
     assert_eq!(c.tyre.as_ref().map(|t| t.lift_off), Some(true));
 }
+
+#[test]
+fn a_bad_model_file_is_one_clear_line_without_a_backtrace() {
+    let dir = std::env::temp_dir().join(format!("mil-diagnose-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = dir.join("bad.toml");
+    std::fs::write(&model, "name = \"x\"\n[[dof]]\nname = \"a\"\nmass = -1\n").unwrap();
+    let data = diagnose_dir().join("data/silverbox_multisine.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_mil"))
+        .args(["diagnose", "--model", text(&model), "--data", text(&data)])
+        .args(["--out", text(&dir.join("out"))])
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("run mil");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert_eq!(err.matches("model:").count(), 1, "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("mass must be > 0"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
