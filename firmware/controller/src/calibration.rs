@@ -482,7 +482,7 @@ pub fn apply_write(p: &Params, s: &Settings, offset: usize, data: &[u8]) -> Resu
 }
 
 /// One measurement: what the A2L file says of it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeasItem {
     /// A2L name.
     pub name: &'static str,
@@ -492,6 +492,10 @@ pub struct MeasItem {
     pub unit: &'static str,
     /// `true`: `f32`; `false`: `u32`.
     pub float: bool,
+    /// Lowest value it can take (unit as above).
+    pub min: f32,
+    /// Highest value it can take.
+    pub max: f32,
 }
 
 /// Number of measurement slots.
@@ -505,60 +509,80 @@ pub const MEAS_ITEMS: [MeasItem; MEASUREMENTS] = [
         name: "position",
         description: "measured actuator position (channel 0)",
         unit: "m",
+        min: -1.0,
+        max: 1.0,
         float: true,
     },
     MeasItem {
         name: "road",
         description: "road displacement input (channel 0)",
         unit: "m",
+        min: -1.0,
+        max: 1.0,
         float: true,
     },
     MeasItem {
         name: "demand",
         description: "force demand sent to the servo controller (channel 0)",
         unit: "N",
+        min: limits::DEMAND_AMPLITUDE.min,
+        max: limits::DEMAND_AMPLITUDE.max,
         float: true,
     },
     MeasItem {
         name: "mode",
         description: "controller mode: 0 idle, 1 running, 2 fault",
         unit: "-",
+        min: 0.0,
+        max: 2.0,
         float: false,
     },
     MeasItem {
         name: "fault_causes",
         description: "latched fault causes (bit mask, as in the Status frame)",
         unit: "-",
+        min: 0.0,
+        max: 255.0,
         float: false,
     },
     MeasItem {
         name: "steps",
         description: "controller steps since start",
         unit: "-",
+        min: 0.0,
+        max: u32::MAX as f32,
         float: false,
     },
     MeasItem {
         name: "missed_samples",
         description: "measurement samples missed (counter gaps)",
         unit: "-",
+        min: 0.0,
+        max: u32::MAX as f32,
         float: false,
     },
     MeasItem {
         name: "malformed_frames",
         description: "malformed frames received",
         unit: "-",
+        min: 0.0,
+        max: u32::MAX as f32,
         float: false,
     },
     MeasItem {
         name: "calibration_changes",
         description: "calibration changes applied since start",
         unit: "-",
+        min: 0.0,
+        max: u32::MAX as f32,
         float: false,
     },
     MeasItem {
         name: "calibration_last_rejection",
         description: "CommandAck code of the last refused calibration change (0: none)",
         unit: "-",
+        min: 0.0,
+        max: 255.0,
         float: false,
     },
 ];

@@ -145,6 +145,17 @@ enum Command {
         #[arg(long, requires = "tyre")]
         tyre_static_load_n: Option<f64>,
     },
+    /// Write the board's A2L file (calibration parameters and measurements for CANape,
+    /// INCA or pyxcp) with the addresses of the firmware ELF FILE (built with symbols, as
+    /// the release profile does).
+    A2l {
+        /// The linked firmware (e.g. target/thumbv7em-none-eabihf/release/mil-firmware).
+        #[arg(long)]
+        elf: PathBuf,
+        /// The A2L file to write.
+        #[arg(long, default_value = "out/mil.a2l")]
+        out: PathBuf,
+    },
     /// Validate a run configuration and report the first problem.
     Check {
         /// Run configuration (TOML).
@@ -369,6 +380,30 @@ fn run(cli: Cli) -> Result<()> {
             } else {
                 print!("{}", result.table());
             }
+            Ok(())
+        }
+        Command::A2l { elf, out } => {
+            let bytes =
+                std::fs::read(&elf).map_err(|e| anyhow::anyhow!("{}: {e}", elf.display()))?;
+            let layout =
+                mil_a2l::layout(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", elf.display()))?;
+            let version = format!(
+                "{} (ELF {})",
+                env!("CARGO_PKG_VERSION"),
+                elf.file_name().map_or("?".into(), |n| n.to_string_lossy())
+            );
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)?;
+            }
+            std::fs::write(&out, mil_a2l::generate(&layout, &version))?;
+            println!(
+                "{}: calibration page at 0x{:08X} ({} bytes), measurements at 0x{:08X} ({} bytes)",
+                out.display(),
+                layout.calibration.address,
+                layout.calibration.size,
+                layout.measurement.address,
+                layout.measurement.size
+            );
             Ok(())
         }
         Command::Check { config } => {

@@ -1,0 +1,255 @@
+//! # mil-a2l
+//!
+//! The A2L file (ASAM MCD-2 MC, ASAP2 1.71) of the MiL board, generated from the firmware's
+//! own tables and the linked ELF, so that CANape, INCA or pyxcp find every parameter and
+//! signal where the firmware keeps it:
+//! - one `CHARACTERISTIC` (`VALUE`, `FLOAT32_IEEE`) per calibration slot of
+//!   `mil_firmware::calibration::ITEMS`, at the address of the working page
+//!   (`mil_firmware::calibration::WORKING`) plus 4 × its slot, with the item's limits (the
+//!   firmware refuses values outside them) and unit;
+//! - one `MEASUREMENT` (`FLOAT32_IEEE` or `ULONG`) per slot of
+//!   `mil_firmware::calibration::MEAS_ITEMS`, at `mil_firmware::calibration::MEASUREMENT`
+//!   plus 4 × its slot;
+//! - `MOD_PAR` with the two `MEMORY_SEGMENT`s (calibration data with a working and a
+//!   reference page, measurement variables) and `MOD_COMMON` (Intel byte order);
+//! - one `COMPU_METHOD` (`IDENTICAL`) per unit, one `RECORD_LAYOUT`.
+//!
+//! The addresses come from the ELF's symbol table: the statics' symbols are found by their
+//! demangled paths, so the firmware needs no `#[no_mangle]` (no `unsafe`). Build the ELF
+//! with symbols (the release profile keeps them).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use mil_firmware::calibration::{
+    CalItem, MeasItem, ITEMS, MEASUREMENT_BYTES, MEAS_ITEMS, PAGE_BYTES,
+};
+use object::{Object, ObjectSymbol};
+
+/// Demangled path of the working calibration page's static.
+pub const WORKING_SYMBOL: &str = "mil_firmware::calibration::WORKING";
+/// Demangled path of the measurement block's static.
+pub const MEASUREMENT_SYMBOL: &str = "mil_firmware::calibration::MEASUREMENT";
+
+/// Errors of the generator.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The file is not an ELF object the reader understands.
+    #[error("not a readable ELF file: {0}")]
+    Elf(String),
+    /// A symbol the A2L needs is not in the ELF's symbol table.
+    #[error(
+        "symbol `{0}` not found in the ELF (a firmware built without it, or stripped of symbols)"
+    )]
+    MissingSymbol(&'static str),
+    /// A symbol's size differs from the firmware table's (the ELF and the tables come from
+    /// different builds).
+    #[error("symbol `{name}` is {found} bytes in the ELF, the firmware's tables say {expected}")]
+    SizeMismatch {
+        /// The symbol.
+        name: &'static str,
+        /// Its size in the ELF (bytes).
+        found: u64,
+        /// The size the tables give (bytes).
+        expected: u64,
+    },
+    /// An address does not fit XCP's 32-bit addresses.
+    #[error("symbol `{0}` lies above 4 GiB")]
+    AddressRange(&'static str),
+}
+
+/// Where a block lives in the target's memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Block {
+    /// Start address.
+    pub address: u32,
+    /// Size (bytes).
+    pub size: u32,
+}
+
+/// The two blocks the A2L file points into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// The working calibration page.
+    pub calibration: Block,
+    /// The measurement block.
+    pub measurement: Block,
+}
+
+/// The symbols of an ELF image: demangled path (without hash) → (address, size).
+///
+/// # Errors
+/// The bytes are not a readable ELF file.
+pub fn symbols(elf: &[u8]) -> Result<BTreeMap<String, (u64, u64)>, Error> {
+    let file = object::File::parse(elf).map_err(|e| Error::Elf(e.to_string()))?;
+    let mut out = BTreeMap::new();
+    for sym in file.symbols() {
+        let Ok(name) = sym.name() else { continue };
+        let path = format!("{:#}", rustc_demangle::demangle(name));
+        out.insert(path, (sym.address(), sym.size()));
+    }
+    Ok(out)
+}
+
+/// Finds the working page and the measurement block in `elf`, checking their sizes against
+/// the firmware's tables.
+///
+/// # Errors
+/// Not an ELF file, a symbol missing, a size or an address that does not fit.
+pub fn layout(elf: &[u8]) -> Result<Layout, Error> {
+    let syms = symbols(elf)?;
+    let block = |name: &'static str, expected: usize| -> Result<Block, Error> {
+        let &(address, size) = syms.get(name).ok_or(Error::MissingSymbol(name))?;
+        if size != expected as u64 {
+            return Err(Error::SizeMismatch {
+                name,
+                found: size,
+                expected: expected as u64,
+            });
+        }
+        Ok(Block {
+            address: u32::try_from(address).map_err(|_| Error::AddressRange(name))?,
+            size: u32::try_from(size).map_err(|_| Error::AddressRange(name))?,
+        })
+    };
+    Ok(Layout {
+        calibration: block(WORKING_SYMBOL, PAGE_BYTES)?,
+        measurement: block(MEASUREMENT_SYMBOL, MEASUREMENT_BYTES)?,
+    })
+}
+
+/// A2L-safe identifier for a unit's conversion method (`N*s/m` → `cm_N_s_per_m`).
+fn compu_method_name(unit: &str) -> String {
+    if unit == "-" {
+        return "cm_none".into();
+    }
+    let mut s = String::from("cm_");
+    for c in unit.chars() {
+        match c {
+            'a'..='z' | 'A'..='Z' | '0'..='9' => s.push(c),
+            '/' => s.push_str("_per_"),
+            _ => s.push('_'),
+        }
+    }
+    s
+}
+
+/// A number as A2L writes it (shortest exact form; A2L takes exponents).
+fn number(v: f32) -> String {
+    let v = f64::from(v);
+    if v == v.trunc() && v.abs() < 1e15 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// A string literal for A2L (`"` and `\` escaped with a backslash).
+fn quoted(s: &str) -> String {
+    format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""))
+}
+
+/// The calibration item's address in `layout`.
+pub fn characteristic_address(layout: &Layout, slot: usize) -> u32 {
+    layout.calibration.address + 4 * slot as u32
+}
+
+/// The measurement's address in `layout`.
+pub fn measurement_address(layout: &Layout, slot: usize) -> u32 {
+    layout.measurement.address + 4 * slot as u32
+}
+
+/// The A2L text for `layout` (see the crate documentation); `version` goes into the header
+/// (e.g. the firmware's version and commit).
+pub fn generate(layout: &Layout, version: &str) -> String {
+    let mut units: BTreeMap<String, &str> = BTreeMap::new();
+    for unit in ITEMS
+        .iter()
+        .map(|i| i.unit)
+        .chain(MEAS_ITEMS.iter().map(|m| m.unit))
+    {
+        units.insert(compu_method_name(unit), unit);
+    }
+    let mut a = String::new();
+    let w = &mut a;
+    let _ = writeln!(w, "ASAP2_VERSION 1 71");
+    let _ = writeln!(
+        w,
+        "/begin PROJECT mil \"Model-in-the-loop board: tyre model on one hub actuator\""
+    );
+    let _ = writeln!(
+        w,
+        "  /begin HEADER \"generated by mil-a2l from the firmware's tables and its ELF\"\n    VERSION {}\n  /end HEADER",
+        quoted(version)
+    );
+    let _ = writeln!(
+        w,
+        "  /begin MODULE mil_firmware \"calibration parameters and measurements\""
+    );
+    let _ = writeln!(
+        w,
+        "    /begin MOD_COMMON \"\"\n      BYTE_ORDER MSB_LAST\n      ALIGNMENT_BYTE 1\n      ALIGNMENT_WORD 2\n      ALIGNMENT_LONG 4\n      ALIGNMENT_FLOAT32_IEEE 4\n    /end MOD_COMMON"
+    );
+    let _ = writeln!(w, "    /begin MOD_PAR \"STM32F405\"");
+    let _ = writeln!(
+        w,
+        "      /begin MEMORY_SEGMENT calibration \"working page 0 (RAM), reference page 1 (flash, read-only)\"\n        DATA RAM INTERN 0x{:08X} 0x{:X} -1 -1 -1 -1 -1\n      /end MEMORY_SEGMENT",
+        layout.calibration.address, layout.calibration.size
+    );
+    let _ = writeln!(
+        w,
+        "      /begin MEMORY_SEGMENT measurement \"signals, stored once per control step\"\n        VARIABLES RAM INTERN 0x{:08X} 0x{:X} -1 -1 -1 -1 -1\n      /end MEMORY_SEGMENT",
+        layout.measurement.address, layout.measurement.size
+    );
+    let _ = writeln!(w, "    /end MOD_PAR");
+    for (name, unit) in &units {
+        let _ = writeln!(
+            w,
+            "    /begin COMPU_METHOD {name} \"{}\"\n      IDENTICAL \"%.6\" {}\n    /end COMPU_METHOD",
+            if *unit == "-" { "no unit" } else { "physical value" },
+            quoted(if *unit == "-" { "" } else { unit })
+        );
+    }
+    let _ = writeln!(
+        w,
+        "    /begin RECORD_LAYOUT rl_float32\n      FNC_VALUES 1 FLOAT32_IEEE COLUMN_DIR DIRECT\n    /end RECORD_LAYOUT"
+    );
+    for (slot, item) in ITEMS.iter().enumerate() {
+        characteristic(w, layout, slot, item);
+    }
+    for (slot, item) in MEAS_ITEMS.iter().enumerate() {
+        measurement(w, layout, slot, item);
+    }
+    let _ = writeln!(w, "  /end MODULE");
+    let _ = writeln!(w, "/end PROJECT");
+    a
+}
+
+fn characteristic(w: &mut String, layout: &Layout, slot: usize, item: &CalItem) {
+    let _ = writeln!(
+        w,
+        "    /begin CHARACTERISTIC {} {}\n      VALUE 0x{:08X} rl_float32 0 {} {} {}\n      PHYS_UNIT {}\n    /end CHARACTERISTIC",
+        item.name,
+        quoted(item.description),
+        characteristic_address(layout, slot),
+        compu_method_name(item.unit),
+        number(item.min),
+        number(item.max),
+        quoted(item.unit)
+    );
+}
+
+fn measurement(w: &mut String, layout: &Layout, slot: usize, item: &MeasItem) {
+    let _ = writeln!(
+        w,
+        "    /begin MEASUREMENT {} {}\n      {} {} 0 0 {} {}\n      ECU_ADDRESS 0x{:08X}\n      PHYS_UNIT {}\n    /end MEASUREMENT",
+        item.name,
+        quoted(item.description),
+        if item.float { "FLOAT32_IEEE" } else { "ULONG" },
+        compu_method_name(item.unit),
+        number(item.min),
+        number(item.max),
+        measurement_address(layout, slot),
+        quoted(item.unit)
+    );
+}
