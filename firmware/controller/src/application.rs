@@ -234,6 +234,11 @@ impl Application {
         })
     }
 
+    /// The input of the last step (channel values as measured).
+    pub fn input(&self) -> &ModelInput<CHANNELS> {
+        &self.input
+    }
+
     /// The controller (read only).
     pub fn controller(&self) -> &Controller {
         &self.controller

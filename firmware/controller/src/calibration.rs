@@ -32,6 +32,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use model_core::controller::SAFE_RAMP_RATE;
 use model_core::{limits, tyre, velocity, ParamError, Range, MAX_SECTIONS};
 
+use crate::application::Application;
 use crate::config::{
     default_params, Params, Prepared, DT, STATUS_PERIOD_RANGE, STATUS_PERIOD_SAMPLES,
     WATCHDOG_OFF_ALLOWED, WATCHDOG_SAMPLES, WATCHDOG_SAMPLES_RANGE,
@@ -641,6 +642,39 @@ pub fn read_measurement(offset: usize, out: &mut [u8]) {
                 .unwrap_or(0)
         });
     }
+}
+
+/// Stores the signals of the step `app` has just made into [`MEASUREMENT`] (call it after
+/// the demand frame is queued: it never delays the demand).
+pub fn record_step(app: &Application) {
+    let input = app.input();
+    let status = app.status();
+    store_f32(
+        meas::POSITION,
+        input.position.first().copied().unwrap_or(0.0),
+    );
+    store_f32(meas::ROAD, input.road.first().copied().unwrap_or(0.0));
+    store_f32(
+        meas::DEMAND,
+        app.controller().demand().first().copied().unwrap_or(0.0),
+    );
+    store_u32(meas::MODE, status.mode as u32);
+    store_u32(meas::FAULT, u32::from(status.fault));
+    store_u32(meas::STEPS, status.counters.steps);
+    store_u32(meas::MISSED, status.counters.missed);
+    store_u32(meas::MALFORMED, status.counters.malformed);
+}
+
+/// Mirrors the running values of `app` into [`WORKING`] (at start and after every change,
+/// whichever path made it).
+pub fn mirror_application(app: &Application) {
+    mirror(
+        app.params(),
+        &Settings {
+            status_period: app.status_period(),
+            watchdog: app.watchdog().limit,
+        },
+    );
 }
 
 #[cfg(test)]

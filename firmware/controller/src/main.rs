@@ -34,6 +34,7 @@ pub(crate) use log;
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [EXTI0])]
 mod app {
     use mil_firmware::application::{prepare_change, Application, Command};
+    use mil_firmware::calibration;
     use mil_firmware::link::{self, Request, Transport, COUNTER_MODULUS};
     use mil_firmware::params::{code, target, Target};
     use rtic_sync::channel::{Receiver, Sender};
@@ -97,6 +98,7 @@ mod app {
             Ok(app) => app,
             Err(_) => crate::fatal::stop(format_args!("default parameters rejected")),
         };
+        calibration::mirror_application(&app);
         let (sender, receiver) = make_channel!(Request, QUEUE);
         if configure::spawn(receiver).is_err() {
             crate::fatal::stop(format_args!("configuration task not spawned"));
@@ -205,6 +207,8 @@ mod app {
                     });
                     if handled == link::Handled::Stepped {
                         timings.record(t0, received, stamps);
+                        // After the demand frame is queued: never delays it.
+                        app.lock(|a| calibration::record_step(a));
                     }
                     dispatch(handled, sender, &mut app, &mut tx);
                     if timings.path.count % 20_000 == 1 {
@@ -277,6 +281,8 @@ mod app {
                     });
                     if handled == link::Handled::Stepped {
                         timings.record(t0, received, stamps);
+                        // After the demand frame is queued: never delays it.
+                        app.lock(|a| calibration::record_step(a));
                     }
                     dispatch(handled, sender, &mut app, &mut tx);
                 }
@@ -343,14 +349,22 @@ mod app {
                 {
                     let current = app.lock(|a| *a.params());
                     match prepare_change(&current, index, value) {
-                        Ok(prepared) => app.lock(|a| a.swap(prepared)),
+                        Ok(prepared) => app.lock(|a| {
+                            let result = a.swap(prepared);
+                            calibration::mirror_application(a);
+                            result
+                        }),
                         Err(c) => {
                             app.lock(|a| a.count_rejected());
                             c
                         }
                     }
                 }
-                Ok(command) => app.lock(|a| a.command(&command)),
+                Ok(command) => app.lock(|a| {
+                    let result = a.command(&command);
+                    calibration::mirror_application(a);
+                    result
+                }),
             };
             let mode = app.lock(|a| a.controller().mode());
             crate::log!(
