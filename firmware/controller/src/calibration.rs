@@ -409,6 +409,38 @@ pub fn mirror(p: &Params, s: &Settings) {
     }
 }
 
+/// The parameters and settings the page's `words` hold, validated slot by slot and as a
+/// whole set, or the CommandAck code of the first refusal.
+pub fn decode_page(words: &[u32; SLOTS]) -> Result<(Prepared, Settings), u8> {
+    let mut next = default_params();
+    let mut settings = DEFAULT_SETTINGS;
+    for (slot, (&w, item)) in words.iter().zip(ITEMS.iter()).enumerate() {
+        let value = f32::from_bits(w);
+        check_slot(slot, value)?;
+        match slot {
+            SLOT_STATUS_PERIOD => settings.status_period = params::status_period(value)?,
+            SLOT_WATCHDOG => settings.watchdog = params::watchdog_limit(value)?,
+            _ => params::write(&mut next, item.index, value)?,
+        }
+    }
+    let prepared = Prepared::new(&next, DT).map_err(|e: ParamError| params::error_code(&e))?;
+    Ok((prepared, settings))
+}
+
+/// The working page's words now.
+pub fn working_words() -> [u32; SLOTS] {
+    core::array::from_fn(|i| WORKING.get(i).map_or(0, |w| w.load(Ordering::Relaxed)))
+}
+
+/// Tests that write or compare the page statics take turns through this lock.
+#[cfg(test)]
+pub(crate) fn test_lock() -> std::sync::MutexGuard<'static, ()> {
+    static PAGES: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    PAGES
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 /// A validated change: the prepared controller parameters (to swap in between two steps)
 /// and the settings.
 pub struct Accepted {

@@ -237,3 +237,4 @@ pub mod config;
 pub mod link;
 pub mod params;
 pub mod stats;
+pub mod xcp;

@@ -1,0 +1,336 @@
+//! The board as an XCP target: `mil-xcp`'s [`Memory`] and [`Calibration`] over the
+//! calibration page and the measurement block ([`crate::calibration`]) and the running
+//! application.
+//!
+//! - Reads: the working page, the reference page (the build's defaults) and the measurement
+//!   block, byte for byte as their statics hold them.
+//! - A write goes to the working page: the page's new content is validated slot by slot and
+//!   as a whole parameter set ([`calibration::apply_write`]); a refused write answers the
+//!   XCP error of its reason and changes nothing. While the controller runs on the working
+//!   page the accepted set is swapped in at once (between two control steps: the swap takes
+//!   the application's lock, which the control step holds while it runs); while it runs on
+//!   the reference page the change waits in the working page.
+//! - SET_CAL_PAGE for the ECU: the reference page swaps in the build's defaults, the working
+//!   page swaps in whatever it holds (validated again).
+//! - COPY_CAL_PAGE reference → working: the whole page at once, as one write.
+//!
+//! Validation runs between two short locks (a copy of nothing but the page, then the swap),
+//! so the control step never waits on it; the XCP task runs at the configuration task's
+//! priority, one command at a time, so no other change comes in between.
+
+use mil_xcp::{Calibration, Memory, Page, Rejected};
+
+use crate::application::{Application, Command};
+use crate::calibration::{self, Settings, PAGE_BYTES, REFERENCE};
+use crate::config::Prepared;
+use crate::params::{code, INDEX_STATUS_PERIOD, INDEX_WATCHDOG};
+
+/// Access to the shared application: `with` runs `f` under the application's lock (on the
+/// board an RTIC resource lock; on the host a plain borrow).
+pub trait AppAccess {
+    /// Runs `f` with the application locked.
+    fn with<R>(&mut self, f: impl FnOnce(&mut Application) -> R) -> R;
+}
+
+impl AppAccess for Application {
+    fn with<R>(&mut self, f: impl FnOnce(&mut Application) -> R) -> R {
+        f(self)
+    }
+}
+
+/// The XCP target (see the module documentation).
+pub struct Target<A> {
+    app: A,
+    ecu_page: Page,
+}
+
+/// The XCP rejection for a CommandAck code.
+pub fn rejection(c: u8) -> Rejected {
+    match c {
+        code::NOT_FINITE => Rejected::NotFinite,
+        code::UNSTABLE => Rejected::Unstable,
+        code::INCONSISTENT => Rejected::Inconsistent,
+        _ => Rejected::OutOfRange,
+    }
+}
+
+impl<A: AppAccess> Target<A> {
+    /// The target over `app`; the controller runs on the working page.
+    pub fn new(app: A) -> Self {
+        Self {
+            app,
+            ecu_page: Page::Working,
+        }
+    }
+
+    /// The page the controller runs on.
+    pub fn ecu_page(&self) -> Page {
+        self.ecu_page
+    }
+
+    /// The application access (e.g. to step it in a host test).
+    pub fn app_mut(&mut self) -> &mut A {
+        &mut self.app
+    }
+
+    /// Swaps `prepared` and `settings` in under one lock.
+    fn install(&mut self, prepared: Prepared, settings: Settings) -> Result<(), Rejected> {
+        let result = self.app.with(|a| {
+            let mut result = a.swap(prepared);
+            for (index, value) in [
+                (INDEX_STATUS_PERIOD, settings.status_period),
+                (INDEX_WATCHDOG, settings.watchdog),
+            ] {
+                let current = if index == INDEX_STATUS_PERIOD {
+                    a.status_period()
+                } else {
+                    a.watchdog().limit
+                };
+                if result == code::OK && current != value {
+                    result = a.command(&Command::SetParam {
+                        index,
+                        value: f32::from(value),
+                    });
+                }
+            }
+            result
+        });
+        if result == code::OK {
+            Ok(())
+        } else {
+            Err(rejection(result))
+        }
+    }
+}
+
+impl<A> Memory for Target<A> {
+    fn read_calibration(&self, page: Page, offset: usize, out: &mut [u8]) {
+        let page = match page {
+            Page::Working => calibration::Page::Working,
+            Page::Reference => calibration::Page::Reference,
+        };
+        calibration::read(page, offset, out);
+    }
+
+    fn read_measurement(&self, offset: usize, out: &mut [u8]) {
+        calibration::read_measurement(offset, out);
+    }
+}
+
+impl<A: AppAccess> Calibration for Target<A> {
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), Rejected> {
+        // The base is the working page as it is (the running values, or the change being
+        // prepared while the controller runs on the reference page).
+        let (base, settings) =
+            calibration::decode_page(&calibration::working_words()).map_err(rejection)?;
+        let before = calibration::working_words();
+        let accepted =
+            calibration::apply_write(base.params(), &settings, offset, data).map_err(rejection)?;
+        if self.ecu_page == Page::Working {
+            if let Err(e) = self.install(accepted.prepared, accepted.settings) {
+                // Not applied: the working page goes back to what runs.
+                for (w, v) in calibration::WORKING.iter().zip(before) {
+                    w.store(v, core::sync::atomic::Ordering::Relaxed);
+                }
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+
+    fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
+        let mut bytes = [0u8; PAGE_BYTES];
+        for (chunk, word) in bytes.chunks_exact_mut(4).zip(REFERENCE.iter()) {
+            chunk.copy_from_slice(&word.to_le_bytes());
+        }
+        self.write(0, &bytes)
+    }
+
+    fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected> {
+        let words = match page {
+            Page::Working => calibration::working_words(),
+            Page::Reference => REFERENCE,
+        };
+        let (prepared, settings) = calibration::decode_page(&words).map_err(rejection)?;
+        self.install(prepared, settings)?;
+        self.ecu_page = page;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::vec;
+    use std::vec::Vec;
+    use crate::calibration::{test_lock, MEASUREMENT_BYTES, PAGE_BYTES};
+    use crate::config::TYRE;
+    use mil_xcp::mock::{MockPlatform, TEST_SECRET};
+    use mil_xcp::{compute_key, Region, Responses, Slave, SlaveConfig};
+
+    const CAL: u32 = 0x2000_0100;
+    const MEAS: u32 = 0x2000_0400;
+
+    fn slave() -> Slave {
+        Slave::new(SlaveConfig {
+            calibration: Region {
+                start: CAL,
+                len: PAGE_BYTES as u32,
+            },
+            measurement: Region {
+                start: MEAS,
+                len: MEASUREMENT_BYTES as u32,
+            },
+            id: b"mil",
+            event_period_us: 500,
+            secret: TEST_SECRET,
+        })
+        .expect("config")
+    }
+
+    struct Session {
+        slave: Slave,
+        target: Target<Application>,
+        platform: MockPlatform,
+        out: Responses,
+    }
+
+    impl Session {
+        fn new() -> Self {
+            let app = Application::new(256).expect("app");
+            calibration::mirror_application(&app);
+            Self {
+                slave: slave(),
+                target: Target::new(app),
+                platform: MockPlatform::default(),
+                out: Responses::default(),
+            }
+        }
+
+        fn send(&mut self, cto: &[u8]) -> Vec<u8> {
+            self.slave
+                .handle(cto, &mut self.target, &mut self.platform, &mut self.out);
+            self.out.iter().flat_map(|f| f.to_vec()).collect()
+        }
+
+        fn connect_and_unlock(&mut self) {
+            assert_eq!(self.send(&[0xFF, 0x00])[0], 0xFF);
+            for resource in [0x01u8, 0x04] {
+                let seed = self.send(&[0xF8, 0x00, resource]);
+                assert_eq!(&seed[..2], &[0xFF, 0x06], "{seed:02X?}");
+                let seed: [u8; 6] = seed[2..8].try_into().expect("6 bytes");
+                let key = compute_key(TEST_SECRET, resource, &seed);
+                let mut unlock = vec![0xF7, 0x06];
+                unlock.extend_from_slice(&key);
+                assert_eq!(self.send(&unlock)[0], 0xFF);
+            }
+        }
+
+        fn set_mta(&mut self, address: u32) {
+            let a = address.to_le_bytes();
+            assert_eq!(self.send(&[0xF6, 0, 0, 0, a[0], a[1], a[2], a[3]]), [0xFF]);
+        }
+
+        fn download_f32(&mut self, address: u32, value: f32) -> Vec<u8> {
+            self.set_mta(address);
+            let v = value.to_le_bytes();
+            self.send(&[0xF0, 4, v[0], v[1], v[2], v[3]])
+        }
+
+        fn upload_f32(&mut self, address: u32) -> f32 {
+            let a = address.to_le_bytes();
+            let r = self.send(&[0xF4, 4, 0, 0, a[0], a[1], a[2], a[3]]);
+            assert_eq!(r[0], 0xFF, "{r:02X?}");
+            f32::from_le_bytes(r[1..5].try_into().expect("4 bytes"))
+        }
+    }
+
+    #[test]
+    fn a_download_reaches_the_running_model_and_bad_values_change_nothing() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.connect_and_unlock();
+        // Tyre damping (slot 1): 500 → 800 N s/m.
+        assert_eq!(s.upload_f32(CAL + 4), TYRE.damping);
+        assert_eq!(s.download_f32(CAL + 4, 800.0), [0xFF]);
+        assert_eq!(s.target.app.params().model.tyre[0].damping, 800.0);
+        assert_eq!(s.upload_f32(CAL + 4), 800.0);
+        // NaN, out of range, inconsistent (minimum above maximum), outside the page: refused
+        // with the XCP error, nothing changes.
+        let before = *s.target.app.params();
+        assert_eq!(s.download_f32(CAL + 4, f32::NAN), [0xFE, 0x22]);
+        assert_eq!(s.download_f32(CAL, -5.0), [0xFE, 0x22]);
+        assert_eq!(s.download_f32(CAL + 20, 50_000.0), [0xFE, 0x31]);
+        assert_eq!(s.slave.last_rejection(), Some(Rejected::Inconsistent));
+        assert_eq!(s.download_f32(CAL + PAGE_BYTES as u32, 1.0)[0], 0xFE);
+        assert_eq!(*s.target.app.params(), before);
+        assert_eq!(s.upload_f32(CAL + 4), 800.0);
+        // The status period (a firmware setting) goes through the same path.
+        assert_eq!(
+            s.download_f32(CAL + 4 * calibration::SLOT_STATUS_PERIOD as u32, 50.0),
+            [0xFF]
+        );
+        assert_eq!(s.target.app.status_period(), 50);
+        // Back to the defaults for the other tests.
+        assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
+        assert_eq!(s.target.app.params().model.tyre[0].damping, TYRE.damping);
+        assert_eq!(s.target.app.status_period(), 200);
+    }
+
+    #[test]
+    fn the_ecu_runs_the_reference_page_while_the_working_page_is_prepared() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.connect_and_unlock();
+        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        // ECU → reference page (mode 0x01, segment 0, page 1): the defaults run.
+        assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01]), [0xFF]);
+        assert_eq!(
+            s.target.app.params().model.tyre[0].stiffness,
+            TYRE.stiffness
+        );
+        // A change to the working page waits there.
+        assert_eq!(s.download_f32(CAL + 4, 900.0), [0xFF]);
+        assert_eq!(s.target.app.params().model.tyre[0].damping, TYRE.damping);
+        // XCP reads of the reference page (XCP access page 1) show the defaults.
+        assert_eq!(s.send(&[0xEB, 0x02, 0x00, 0x01]), [0xFF]);
+        assert_eq!(s.upload_f32(CAL), TYRE.stiffness);
+        // Writes through the reference page are refused (write protected).
+        assert_eq!(s.download_f32(CAL, 1.0), [0xFE, 0x23]);
+        // ECU and XCP back to the working page: the prepared set runs.
+        assert_eq!(s.send(&[0xEB, 0x83, 0x00, 0x00]), [0xFF]);
+        let tyre = s.target.app.params().model.tyre[0];
+        assert_eq!((tyre.stiffness, tyre.damping), (3.0e5, 900.0));
+        assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
+    }
+
+    #[test]
+    fn a_whole_filter_goes_in_as_one_block_download() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.connect_and_unlock();
+        // Sections = 1 and section 0 (slots 10..=15, 24 bytes) in one block: DOWNLOAD with
+        // 6 bytes, then DOWNLOAD_NEXT frames.
+        let vals = [1.0f32, 0.0, 0.0, 0.01, 0.2, 0.01];
+        let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+        s.set_mta(CAL + 40);
+        let mut first = vec![0xF0, 24];
+        first.extend_from_slice(&bytes[..6]);
+        assert!(s.send(&first).is_empty(), "block start: no answer");
+        let mut at = 6;
+        let mut answer = Vec::new();
+        while at < bytes.len() {
+            let n = (bytes.len() - at).min(6);
+            let mut next = vec![0xEF, (bytes.len() - at) as u8];
+            next.extend_from_slice(&bytes[at..at + n]);
+            answer = s.send(&next);
+            at += n;
+        }
+        assert_eq!(answer, [0xFF]);
+        let f = s.target.app.params().filter[0];
+        assert_eq!((f.sections, f.section[0].alpha1), (1, 0.2));
+        assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
+        assert_eq!(s.target.app.params().filter[0].sections, 0);
+    }
+}
