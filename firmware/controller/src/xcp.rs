@@ -161,12 +161,12 @@ impl<A: AppAccess> Calibration for Target<A> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::vec;
-    use std::vec::Vec;
     use crate::calibration::{test_lock, MEASUREMENT_BYTES, PAGE_BYTES};
     use crate::config::TYRE;
     use mil_xcp::mock::{MockPlatform, TEST_SECRET};
     use mil_xcp::{compute_key, Region, Responses, Slave, SlaveConfig};
+    use std::vec;
+    use std::vec::Vec;
 
     const CAL: u32 = 0x2000_0100;
     const MEAS: u32 = 0x2000_0400;

@@ -43,7 +43,6 @@ use mil_rig::effects::{
     AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, FreePlay,
     QuadraticDamping,
 };
-use mil_rig::rng::SplitMix64;
 use mil_rig::specimen::GRAVITY_M_PER_S2;
 
 /// Fraction of the samples in which the linear tyre would pull on the lift-off records.
@@ -168,18 +167,7 @@ fn record(kind: EffectKind, ex: Excitation, seed: u64) -> (Record, Truth) {
     let v: Vec<f64> = linear.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
     let (effects, truth) = effect(kind, rms(&linear), rms(&v));
     let x = oscillator_response(effects, &f);
-    let mut rng = SplitMix64::new(seed ^ 0xABCD);
-    let t: Vec<f64> = (0..f.len()).map(|i| i as f64 * dt).collect();
-    let rec = Record::new(
-        &t,
-        vec!["force".into(), "x".into()],
-        vec![
-            noisy(&f, INPUT_NOISE, &mut rng),
-            noisy(&x, OUTPUT_NOISE, &mut rng),
-        ],
-    )
-    .expect("record");
-    (rec, truth)
+    (noisy_record("force", &f, &x, seed), truth)
 }
 
 /// The results of one matrix: the failures and the printed table.
@@ -371,18 +359,7 @@ fn input_effect_record(
         100.0 * change(f, &applied)
     );
     let x = oscillator_response(Effects::default(), &applied);
-    let mut rng = SplitMix64::new(seed ^ 0xABCD);
-    let t: Vec<f64> = (0..f.len()).map(|i| i as f64 / FS).collect();
-    let rec = Record::new(
-        &t,
-        vec!["force".into(), "x".into()],
-        vec![
-            noisy(f, INPUT_NOISE, &mut rng),
-            noisy(&x, OUTPUT_NOISE, &mut rng),
-        ],
-    )
-    .expect("record");
-    (rec, truth)
+    (noisy_record("force", f, &x, seed), truth)
 }
 
 /// The wheel of `tests/synthetic_effects.rs` lifting off a random road (pink, 0.5–30 Hz)
@@ -410,19 +387,8 @@ fn lift_off_record(ex: Excitation, pulling: f64, seed: u64) -> (Record, Truth) {
         1e3 * rms(&road),
         100.0 * lifted
     );
-    let mut rng = SplitMix64::new(seed ^ 0xABCD);
-    let t: Vec<f64> = (0..n).map(|i| i as f64 / FS).collect();
-    let rec = Record::new(
-        &t,
-        vec!["road".into(), "x".into()],
-        vec![
-            noisy(&road, INPUT_NOISE, &mut rng),
-            noisy(&x, OUTPUT_NOISE, &mut rng),
-        ],
-    )
-    .expect("record");
     let truth = vec![("preload_n", WHEEL_MASS * GRAVITY_M_PER_S2, 0.10)];
-    (rec, truth)
+    (noisy_record("road", &road, &x, seed), truth)
 }
 
 #[test]

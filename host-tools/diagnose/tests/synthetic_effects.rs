@@ -41,7 +41,6 @@ use mil_diagnose::{Diagnosis, EffectKind, Record};
 use mil_rig::effects::{
     AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, FreePlay,
 };
-use mil_rig::rng::SplitMix64;
 use mil_rig::specimen::GRAVITY_M_PER_S2;
 
 /// The record seed `n`, shifted by the environment variable `DIAGNOSE_SEED_OFFSET` (to
@@ -57,12 +56,7 @@ fn seed(n: u64) -> u64 {
 /// holds `recorded` (N, the commanded force) and the displacement, both with noise.
 fn force_record(effects: Effects, applied: &[f64], recorded: &[f64], seed: u64) -> Record {
     let x = oscillator_response(effects, applied);
-    let dt = 1.0 / FS;
-    let mut rng = SplitMix64::new(seed ^ 0xABCD);
-    let t: Vec<f64> = (0..applied.len()).map(|i| i as f64 * dt).collect();
-    let f = noisy(recorded, INPUT_NOISE, &mut rng);
-    let x = noisy(&x, OUTPUT_NOISE, &mut rng);
-    Record::new(&t, vec!["force".into(), "x".into()], vec![f, x]).expect("record")
+    noisy_record("force", recorded, &x, seed)
 }
 
 /// Band-limited random force, 0.5–60 Hz, `FORCE_RMS`.
@@ -390,12 +384,7 @@ fn lift_off_record(road: &[f64], seed: u64) -> Record {
         "lift-off record: tyre unloaded in {:.1} % of the samples",
         100.0 * pulling
     );
-    let dt = 1.0 / FS;
-    let mut rng = SplitMix64::new(seed ^ 0xABCD);
-    let t: Vec<f64> = (0..road.len()).map(|i| i as f64 * dt).collect();
-    let w = noisy(road, INPUT_NOISE, &mut rng);
-    let x = noisy(&x, OUTPUT_NOISE, &mut rng);
-    Record::new(&t, vec!["road".into(), "x".into()], vec![w, x]).expect("record")
+    noisy_record("road", road, &x, seed)
 }
 
 #[test]

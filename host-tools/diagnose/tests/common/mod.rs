@@ -135,6 +135,17 @@ pub fn names(d: &Diagnosis) -> Vec<EffectKind> {
     d.named.iter().map(|n| n.named.effect).collect()
 }
 
+/// A record at [`FS`] of the excitation `input` (column `input_name`) and the displacement
+/// `x` (column `x`), with measurement noise ([`INPUT_NOISE`], [`OUTPUT_NOISE`]) drawn from
+/// `seed`.
+pub fn noisy_record(input_name: &str, input: &[f64], x: &[f64], seed: u64) -> Record {
+    let mut rng = SplitMix64::new(seed ^ 0xABCD);
+    let t: Vec<f64> = (0..input.len()).map(|i| i as f64 / FS).collect();
+    let u = noisy(input, INPUT_NOISE, &mut rng);
+    let x = noisy(x, OUTPUT_NOISE, &mut rng);
+    Record::new(&t, vec![input_name.into(), "x".into()], vec![u, x]).expect("record")
+}
+
 /// Adds white noise of `fraction` × the signal's RMS.
 pub fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
     let rms = (clean.iter().map(|v| v * v).sum::<f64>() / clean.len() as f64).sqrt();
