@@ -532,7 +532,7 @@ pub struct MeasItem {
 }
 
 /// Number of measurement slots.
-pub const MEASUREMENTS: usize = 10;
+pub const MEASUREMENTS: usize = 11;
 /// Size of the measurement block (bytes).
 pub const MEASUREMENT_BYTES: usize = 4 * MEASUREMENTS;
 
@@ -618,6 +618,14 @@ pub const MEAS_ITEMS: [MeasItem; MEASUREMENTS] = [
         max: 255.0,
         float: false,
     },
+    MeasItem {
+        name: "daq_dropped",
+        description: "XCP DAQ samples or packets dropped (queue full, bus busy)",
+        unit: "-",
+        min: 0.0,
+        max: u32::MAX as f32,
+        float: false,
+    },
 ];
 
 /// Slot of each measurement in [`MEASUREMENT`].
@@ -642,6 +650,8 @@ pub mod meas {
     pub const CAL_CHANGES: usize = 8;
     /// Last calibration rejection code.
     pub const CAL_REJECTION: usize = 9;
+    /// DAQ samples or packets dropped.
+    pub const DAQ_DROPPED: usize = 10;
 }
 
 /// The measurement block, in RAM (see the module documentation).
@@ -674,6 +684,44 @@ pub fn read_measurement(offset: usize, out: &mut [u8]) {
                 .unwrap_or(0)
         });
     }
+}
+
+/// Adds one to the counter in measurement `slot` (wrapping).
+pub fn count(slot: usize) {
+    if let Some(w) = MEASUREMENT.get(slot) {
+        // A load and a store, not `fetch_add`: only one context writes each counter slot
+        // (the calibration tasks, which never preempt each other, or the DAQ task), and
+        // the same code then builds for targets without atomic read-modify-write.
+        w.store(w.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+    }
+}
+
+/// Records the outcome of a calibration change (a parameter or setting command, or an XCP
+/// write, copy or page switch): [`meas::CAL_CHANGES`] counts the applied ones,
+/// [`meas::CAL_REJECTION`] keeps the CommandAck code of the last refused one.
+pub fn note_change(result: u8) {
+    if result == code::OK {
+        count(meas::CAL_CHANGES);
+    } else {
+        store_u32(meas::CAL_REJECTION, u32::from(result));
+    }
+}
+
+/// The measurement block's words now.
+pub fn measurement_words() -> [u32; MEASUREMENTS] {
+    core::array::from_fn(|i| MEASUREMENT.get(i).map_or(0, |w| w.load(Ordering::Relaxed)))
+}
+
+/// The address of the working page ([`WORKING`]): the start of the XCP calibration region.
+/// On the board it is a 32-bit RAM address; on a 64-bit host only the low 32 bits.
+pub fn working_address() -> u32 {
+    WORKING.as_ptr() as usize as u32
+}
+
+/// The address of the measurement block ([`MEASUREMENT`]): the start of the XCP measurement
+/// region (32-bit on the board, see [`working_address`]).
+pub fn measurement_address() -> u32 {
+    MEASUREMENT.as_ptr() as usize as u32
 }
 
 /// Stores the signals of the step `app` has just made into [`MEASUREMENT`] (call it after

@@ -111,6 +111,10 @@ pub struct Timings {
     /// frame decode, controller step (with the counters), demand encode, transport queue
     /// (QEMU: SLCAN formatting; board: mailbox write).
     pub parts: [Timing; 5],
+    /// After the demand is queued: the step's signals stored in the measurement block and,
+    /// while an XCP DAQ list runs, the block copied into the DAQ task's queue (what DAQ
+    /// costs the receive task).
+    pub post: Timing,
 }
 
 impl Timings {

@@ -80,6 +80,26 @@ pub const BOARD_TICK_US: u32 = 1_000_000 / SAMPLE_RATE_HZ;
 /// test counts ticks (demand frames sent while the link is down), not time.
 pub const QEMU_TICK_US: u32 = 50_000;
 
+// The build-time XCP settings: `XCP_COMMAND_ID`, `XCP_RESPONSE_ID`, `XCP_SECRET` (see
+// `build.rs`: environment variables `MIL_XCP_CAN_IDS` and `MIL_XCP_SECRET`).
+include!(concat!(env!("OUT_DIR"), "/xcp_build.rs"));
+
+// The XCP frames lie above the MiL range (lower priority on the bus) and differ.
+const _: () = {
+    let (_, last) = crate::link::LAYOUT.id_range();
+    assert!(XCP_COMMAND_ID > last);
+    assert!(XCP_RESPONSE_ID > last);
+    assert!(XCP_COMMAND_ID <= 0x7FF && XCP_RESPONSE_ID <= 0x7FF);
+    assert!(XCP_COMMAND_ID != XCP_RESPONSE_ID);
+};
+
+/// XCP GET_ID answer: the A2L file's name without extension (`mil a2l` writes `mil.a2l`).
+pub const XCP_ID: &[u8] = b"mil";
+
+/// Frames of XCP commands waiting for the XCP task: a master's block download (up to
+/// MAX_BS = 42 DOWNLOAD_NEXT frames sent back to back) fits.
+pub const XCP_QUEUE: usize = 48;
+
 /// The paper's tyre parameters for every channel, as in `tyre.toml`.
 pub const TYRE: TyreParams = TyreParams {
     stiffness: 2.5e5,

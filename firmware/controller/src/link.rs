@@ -11,6 +11,7 @@
 //! | Command | forwarded to the configuration task, which answers with a CommandAck |
 //! | a Command frame that fails to decode (NaN value, unknown command, reserved bits, length) | counted as malformed; answered with a CommandAck whose result is the decode error's code (`CommandAck::rejecting`) |
 //! | any other frame in the MiL range that fails to decode (length, range, "not available", free ID, remote) | counted as malformed, ignored |
+//! | XCP command (standard ID `config::XCP_COMMAND_ID`, default 0x7E0) | forwarded to the XCP task ([`crate::xcp`]), which answers on `config::XCP_RESPONSE_ID`; a build without an XCP secret counts it as foreign |
 //! | a frame outside the MiL range, an extended ID, or a board-to-host frame (Demand, Status, CommandAck: another board or an echo) | counted as foreign, ignored |
 
 use mil_frames::slcan::{self, SlcanLine};
@@ -23,7 +24,7 @@ use model_core::Mode;
 use crate::application::{
     Application, Command, Demand, Measurement, MeasurementAux, Output, StatusReport,
 };
-use crate::config::SAFE_DEMAND_N;
+use crate::config::{SAFE_DEMAND_N, XCP_COMMAND_ID};
 
 /// The measurement counter's modulus (the DBC's `Counter` is 8 bits).
 pub const COUNTER_MODULUS: u32 = 256;
@@ -57,6 +58,9 @@ pub enum Handled {
     Done,
     /// A command for the configuration task.
     Command(Request),
+    /// An XCP command frame (ID [`XCP_COMMAND_ID`]) for the XCP task (a build without an
+    /// XCP secret counts it as foreign).
+    Xcp(RawFrame),
 }
 
 /// The model-core mode as the frames' mode (same values).
@@ -236,6 +240,9 @@ pub fn on_frame_probed<T: Transport, P: FnMut(usize)>(
     tx: &mut T,
     probe: &mut P,
 ) -> Handled {
+    if frame.id == XCP_COMMAND_ID {
+        return Handled::Xcp(*frame);
+    }
     match decode(&LAYOUT, frame) {
         Ok(Message::Measurement(m)) => {
             probe(stage::DECODED);

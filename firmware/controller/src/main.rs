@@ -31,12 +31,19 @@ macro_rules! log {
 }
 pub(crate) use log;
 
-#[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [EXTI0])]
+#[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [EXTI0, EXTI1])]
 mod app {
+    use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
+
     use mil_firmware::application::{prepare_change, Application, Command};
-    use mil_firmware::calibration;
+    use mil_firmware::calibration::{self, meas};
+    use mil_firmware::config::{XCP_QUEUE, XCP_SECRET};
     use mil_firmware::link::{self, Request, Transport, COUNTER_MODULUS};
     use mil_firmware::params::{code, target, Target};
+    use mil_firmware::xcp::{
+        response_frame, slave_config, AppAccess, Link, StepPlatform, StepSample, XcpRequest,
+    };
+    use mil_xcp::{Responses, Slave};
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
 
@@ -45,6 +52,17 @@ mod app {
 
     /// Commands waiting for the configuration task.
     const QUEUE: usize = 4;
+    /// Step samples waiting for the DAQ task.
+    const DAQ_QUEUE: usize = 16;
+
+    /// Whether a DAQ list runs (set by the XCP task after each command): the receive task
+    /// copies the measurement block for the DAQ task only then.
+    pub(crate) static DAQ_RUNNING: AtomicBool = AtomicBool::new(false);
+    /// The link of the last CONNECT: where DAQ packets go (`Link as u8`).
+    static DAQ_LINK: AtomicU8 = AtomicU8::new(0);
+    /// Step samples the receive task could not queue for the DAQ task (written by the
+    /// receive task only).
+    static DAQ_SAMPLES_DROPPED: AtomicU32 = AtomicU32::new(0);
 
     #[shared]
     struct Shared {
@@ -52,6 +70,10 @@ mod app {
         app: Application,
         /// The transmit half of the transport.
         tx: port::Tx,
+        /// The XCP slave; `None` when the build has no XCP secret.
+        xcp: Option<Slave>,
+        /// The transmit half of the QEMU build's XCP port (USART2); nothing on the board.
+        aux_tx: port::AuxTx,
     }
 
     #[local]
@@ -61,16 +83,41 @@ mod app {
         can: Receive,
         #[cfg(feature = "qemu")]
         uart: Receive,
+        #[cfg(feature = "qemu")]
+        aux: Aux,
     }
 
     /// What the receive task owns.
     pub struct Receive {
         rx: port::Rx,
         sender: Sender<'static, Request, QUEUE>,
+        xcp: Sender<'static, XcpRequest, XCP_QUEUE>,
+        daq: Sender<'static, StepSample, DAQ_QUEUE>,
         clock: clock::Clock,
         timings: Timings,
         #[cfg(feature = "qemu")]
         qemu: Qemu,
+    }
+
+    /// What the QEMU build's XCP port task owns (nothing on the board).
+    pub struct Aux {
+        #[cfg(feature = "qemu")]
+        rx: port::AuxRx,
+        #[cfg(feature = "qemu")]
+        xcp: Sender<'static, XcpRequest, XCP_QUEUE>,
+        #[cfg(feature = "qemu")]
+        lines: mil_frames::slcan::LineBuffer<32>,
+        #[cfg(feature = "qemu")]
+        session: link::SlcanSession,
+    }
+
+    /// The application behind its RTIC lock, for `mil_firmware::xcp::Target`.
+    struct Locked<'a, M>(&'a mut M);
+
+    impl<M: rtic::Mutex<T = Application>> AppAccess for Locked<'_, M> {
+        fn with<R>(&mut self, f: impl FnOnce(&mut Application) -> R) -> R {
+            self.0.lock(f)
+        }
     }
 
     /// The QEMU build's SLCAN receive state and start-up figures.
@@ -103,22 +150,55 @@ mod app {
         if configure::spawn(receiver).is_err() {
             crate::fatal::stop(format_args!("configuration task not spawned"));
         }
+        // XCP: only with a build-time secret. Without one the two tasks are not spawned, their
+        // channels have no receiver, and XCP frames are counted as foreign.
+        let (xcp_sender, xcp_receiver) = make_channel!(XcpRequest, XCP_QUEUE);
+        let (daq_sender, daq_receiver) = make_channel!(StepSample, DAQ_QUEUE);
+        let slave = XCP_SECRET.and_then(|secret| Slave::new(slave_config(secret)).ok());
+        if slave.is_some() {
+            if xcp::spawn(xcp_receiver).is_err() || daq::spawn(daq_receiver).is_err() {
+                crate::fatal::stop(format_args!("XCP tasks not spawned"));
+            }
+            crate::log!(
+                "XCP on CAN: commands {=u16:#x}, responses {=u16:#x}",
+                mil_firmware::config::XCP_COMMAND_ID,
+                mil_firmware::config::XCP_RESPONSE_ID
+            );
+        } else {
+            crate::log!("XCP off: no secret in this build");
+        }
         crate::log!("mil-firmware up: tyre x1 at 2 kHz, Idle");
         (
-            Shared { app, tx: hw.tx },
+            Shared {
+                app,
+                tx: hw.tx,
+                xcp: slave,
+                aux_tx: hw.aux_tx,
+            },
             Local {
                 tick: hw.tick,
                 #[cfg(not(feature = "qemu"))]
                 can: Receive {
                     rx: hw.rx,
                     sender,
+                    xcp: xcp_sender,
+                    daq: daq_sender,
                     clock,
                     timings: Timings::default(),
+                },
+                #[cfg(feature = "qemu")]
+                aux: Aux {
+                    rx: hw.aux_rx,
+                    xcp: xcp_sender.clone(),
+                    lines: mil_frames::slcan::LineBuffer::new(),
+                    session: link::SlcanSession::new(),
                 },
                 #[cfg(feature = "qemu")]
                 uart: Receive {
                     rx: hw.rx,
                     sender,
+                    xcp: xcp_sender,
+                    daq: daq_sender,
                     clock,
                     timings: Timings::default(),
                     qemu: Qemu {
@@ -148,16 +228,32 @@ mod app {
         }
     }
 
+    /// After a step: the step's signals into the measurement block and, while DAQ runs, a
+    /// copy of it for the DAQ task (dropped and counted when the DAQ task is behind). Runs in
+    /// the receive task after the demand frame was queued.
+    fn after_step(
+        app: &mut impl rtic::Mutex<T = Application>,
+        daq: &mut Sender<'static, StepSample, DAQ_QUEUE>,
+    ) {
+        app.lock(|a| calibration::record_step(a));
+        if DAQ_RUNNING.load(Ordering::Relaxed) && daq.try_send(StepSample::take()).is_err() {
+            DAQ_SAMPLES_DROPPED.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
     /// After a received frame was handled: forward a command to the configuration task (or
-    /// refuse it when the queue is full). Runs inside the receive task.
+    /// refuse it when the queue is full), an XCP command to the XCP task. Runs inside the
+    /// receive task.
     fn dispatch(
         handled: link::Handled,
         sender: &mut Sender<'static, Request, QUEUE>,
+        xcp: &mut Sender<'static, XcpRequest, XCP_QUEUE>,
         app: &mut impl rtic::Mutex<T = Application>,
         tx: &mut impl rtic::Mutex<T = port::Tx>,
     ) {
         match handled {
             link::Handled::Stepped | link::Handled::Done => {}
+            link::Handled::Xcp(frame) => forward_xcp(xcp, frame, Link::Bus, app),
             link::Handled::Command(request) => {
                 if sender.try_send(request).is_err() {
                     // Queue full: refused at once, nothing changed.
@@ -175,6 +271,22 @@ mod app {
         }
     }
 
+    /// Queues an XCP command for the XCP task. Without an XCP task (no secret) the frame is
+    /// foreign; with a full queue it is dropped and counted as rejected (the master times
+    /// out and repeats it).
+    fn forward_xcp(
+        xcp: &mut Sender<'static, XcpRequest, XCP_QUEUE>,
+        frame: mil_frames::RawFrame,
+        link: Link,
+        app: &mut impl rtic::Mutex<T = Application>,
+    ) {
+        match xcp.try_send(XcpRequest { frame, link }) {
+            Ok(()) => {}
+            Err(rtic_sync::channel::TrySendError::NoReceiver(_)) => app.lock(|a| a.count_foreign()),
+            Err(_) => app.lock(|a| a.count_rejected()),
+        }
+    }
+
     /// Board: CAN1 FIFO 0 holds frames (highest priority: the sample clock of the loop).
     #[cfg(not(feature = "qemu"))]
     #[task(binds = CAN1_RX0, priority = 3, shared = [app, tx], local = [can])]
@@ -182,6 +294,8 @@ mod app {
         let Receive {
             rx,
             sender,
+            xcp,
+            daq,
             clock,
             timings,
             ..
@@ -208,9 +322,11 @@ mod app {
                     if handled == link::Handled::Stepped {
                         timings.record(t0, received, stamps);
                         // After the demand frame is queued: never delays it.
-                        app.lock(|a| calibration::record_step(a));
+                        let [.., queued] = stamps;
+                        after_step(&mut app, daq);
+                        timings.post.record(clock::elapsed(queued, clock.now()));
                     }
-                    dispatch(handled, sender, &mut app, &mut tx);
+                    dispatch(handled, sender, xcp, &mut app, &mut tx);
                     if timings.path.count % 20_000 == 1 {
                         let used = clock::stack_used_cached();
                         crate::log!(
@@ -238,6 +354,8 @@ mod app {
         let Receive {
             rx,
             sender,
+            xcp,
+            daq,
             clock,
             timings,
             qemu,
@@ -282,9 +400,11 @@ mod app {
                     if handled == link::Handled::Stepped {
                         timings.record(t0, received, stamps);
                         // After the demand frame is queued: never delays it.
-                        app.lock(|a| calibration::record_step(a));
+                        let [.., queued] = stamps;
+                        after_step(&mut app, daq);
+                        timings.post.record(clock::elapsed(queued, clock.now()));
                     }
-                    dispatch(handled, sender, &mut app, &mut tx);
+                    dispatch(handled, sender, xcp, &mut app, &mut tx);
                 }
                 link::LineAction::Other(e) => app.lock(|a| link::on_other_frame(a, e)),
                 link::LineAction::Reply { bytes, len } => {
@@ -331,6 +451,225 @@ mod app {
         });
     }
 
+    /// QEMU: one byte (or more) of SLCAN on USART2, the XCP port. XCP command frames go to
+    /// the XCP task (answered on this port); other frames are ignored; `C` is only answered.
+    #[cfg(feature = "qemu")]
+    #[task(binds = USART2, priority = 2, shared = [app, aux_tx], local = [aux])]
+    fn aux_rx(cx: aux_rx::Context) {
+        use embedded_hal_nb::serial::Read as _;
+        let Aux {
+            rx,
+            xcp,
+            lines,
+            session,
+        } = cx.local.aux;
+        let aux_rx::SharedResources {
+            mut app,
+            mut aux_tx,
+            ..
+        } = cx.shared;
+        for _ in 0..64 {
+            let byte = match rx.0.read() {
+                Ok(b) => b,
+                Err(nb::Error::WouldBlock) => break,
+                Err(nb::Error::Other(_)) => {
+                    lines.clear();
+                    continue;
+                }
+            };
+            let line = match lines.push(byte) {
+                Ok(Some(line)) => line,
+                Ok(None) => continue,
+                Err(_) => {
+                    aux_tx.lock(|t| {
+                        t.write(mil_frames::slcan::ERROR);
+                        t.flush();
+                    });
+                    continue;
+                }
+            };
+            match session.on_line(line) {
+                link::LineAction::Frame(frame)
+                    if frame.id == mil_firmware::config::XCP_COMMAND_ID =>
+                {
+                    forward_xcp(xcp, frame, Link::Aux, &mut app);
+                }
+                link::LineAction::Frame(_) | link::LineAction::Other(_) => {}
+                link::LineAction::Reply { bytes, len } => {
+                    aux_tx.lock(|t| {
+                        t.write(bytes.get(..len).unwrap_or(&[]));
+                        t.flush();
+                    });
+                }
+                link::LineAction::Closed => aux_tx.lock(|t| {
+                    t.write(mil_frames::slcan::OK);
+                    t.flush();
+                }),
+            }
+        }
+    }
+
+    /// Sends XCP packets on `link`: the board's CAN1 or QEMU's USART1 (`Link::Bus`), QEMU's
+    /// USART2 (`Link::Aux`); the number of packets that could not be queued.
+    fn send_xcp<'p>(
+        link: Link,
+        packets: impl Iterator<Item = &'p [u8]>,
+        tx: &mut impl rtic::Mutex<T = port::Tx>,
+        aux_tx: &mut impl rtic::Mutex<T = port::AuxTx>,
+    ) -> u32 {
+        match link {
+            Link::Bus => tx.lock(|t| {
+                let lost = queue_packets(t, packets);
+                t.flush();
+                lost
+            }),
+            Link::Aux => aux_tx.lock(|t| {
+                let lost = queue_packets(t, packets);
+                t.flush();
+                lost
+            }),
+        }
+    }
+
+    /// Queues the packets as frames on the XCP response ID; the number not queued.
+    fn queue_packets<'p, T: Transport>(t: &mut T, packets: impl Iterator<Item = &'p [u8]>) -> u32 {
+        let mut lost = 0;
+        for p in packets {
+            let queued = response_frame(p).is_some_and(|f| t.queue(&f));
+            lost += u32::from(!queued);
+        }
+        lost
+    }
+
+    /// XCP commands, one at a time (priority 1, like `configure`: same-priority tasks never
+    /// preempt each other, so a calibration write and a command-frame change never
+    /// interleave). Holds the slave for the command (which blocks only the DAQ task and the
+    /// watchdog tick, never the control step); a calibration change is validated on a copy
+    /// and swapped in under the application's short lock (`mil_firmware::xcp::Target`).
+    #[task(priority = 1, shared = [app, tx, xcp, aux_tx])]
+    async fn xcp(cx: xcp::Context, mut receiver: Receiver<'static, XcpRequest, XCP_QUEUE>) {
+        let xcp::SharedResources {
+            mut app,
+            mut tx,
+            xcp: mut slave,
+            mut aux_tx,
+            ..
+        } = cx.shared;
+        // Seed entropy: SysTick's count on the board (it runs, see `clock`); QEMU does not
+        // start SysTick, so there the slave's seed counter alone varies the seed, which is
+        // enough for a test build.
+        #[cfg(not(feature = "qemu"))]
+        let mut platform = StepPlatform::new(cortex_m::peripheral::SYST::get_current);
+        #[cfg(feature = "qemu")]
+        let mut platform = StepPlatform::new(|| 0);
+        let mut out = Responses::new();
+        while let Ok(request) = receiver.recv().await {
+            handle_xcp(&request, &mut slave, &mut app, &mut platform, &mut out);
+            send_xcp(request.link, out.iter(), &mut tx, &mut aux_tx);
+        }
+    }
+
+    /// One XCP command through the slave.
+    fn handle_xcp<P: mil_xcp::Platform>(
+        request: &XcpRequest,
+        slave: &mut impl rtic::Mutex<T = Option<Slave>>,
+        app: &mut impl rtic::Mutex<T = Application>,
+        platform: &mut P,
+        out: &mut Responses,
+    ) {
+        let cto = request.frame.payload();
+        slave.lock(|s| {
+            let Some(s) = s.as_mut() else {
+                return;
+            };
+            let mut target = mil_firmware::xcp::Target::with_page(Locked(app), s.ecu_page());
+            s.handle(cto, &mut target, platform, out);
+            DAQ_RUNNING.store(s.daq_running(), Ordering::Relaxed);
+        });
+        if cto.first() == Some(&mil_xcp::protocol::cmd::CONNECT) {
+            DAQ_LINK.store(request.link as u8, Ordering::Relaxed);
+        }
+    }
+
+    /// The DTO packets of one step sample (at most one per ODT).
+    struct Packets {
+        data: [[u8; mil_xcp::MAX_DTO]; mil_xcp::MAX_ODTS],
+        lens: [u8; mil_xcp::MAX_ODTS],
+        n: usize,
+    }
+
+    impl Packets {
+        /// Samples the running DAQ lists on `sample` (event 0, the control step), under the
+        /// slave's lock; the packets are sent after it.
+        fn sample(sample: &StepSample, slave: &mut impl rtic::Mutex<T = Option<Slave>>) -> Self {
+            let mut p = Self {
+                data: [[0; mil_xcp::MAX_DTO]; mil_xcp::MAX_ODTS],
+                lens: [0; mil_xcp::MAX_ODTS],
+                n: 0,
+            };
+            slave.lock(|s| {
+                if let Some(s) = s.as_mut() {
+                    s.sample_daq(0, sample.time_us, sample, |dto| {
+                        let slot = (p.data.get_mut(p.n), p.lens.get_mut(p.n));
+                        if let (Some(d), Some(l)) = slot {
+                            if let Some(dst) = d.get_mut(..dto.len()) {
+                                dst.copy_from_slice(dto);
+                                *l = dto.len() as u8;
+                                p.n += 1;
+                            }
+                        }
+                    });
+                }
+            });
+            p
+        }
+
+        fn iter(&self) -> impl Iterator<Item = &[u8]> {
+            self.data
+                .iter()
+                .zip(self.lens.iter())
+                .take(self.n)
+                .map(|(d, &l)| d.get(..usize::from(l)).unwrap_or(&[]))
+        }
+    }
+
+    /// Where DAQ packets go: the link of the last CONNECT.
+    fn daq_link() -> Link {
+        if DAQ_LINK.load(Ordering::Relaxed) == Link::Aux as u8 {
+            Link::Aux
+        } else {
+            Link::Bus
+        }
+    }
+
+    /// Publishes the DAQ losses (packets not queued + samples not queued) in the
+    /// measurement block.
+    fn store_daq_dropped(lost_packets: u32) {
+        calibration::store_u32(
+            meas::DAQ_DROPPED,
+            lost_packets.wrapping_add(DAQ_SAMPLES_DROPPED.load(Ordering::Relaxed)),
+        );
+    }
+
+    /// DAQ: samples the running lists for each step sample the receive task queued, and
+    /// sends their packets to the master (priority 2: below the control step, above the
+    /// calibration path). Packets that cannot be queued are dropped and counted.
+    #[task(priority = 2, shared = [xcp, tx, aux_tx])]
+    async fn daq(cx: daq::Context, mut receiver: Receiver<'static, StepSample, DAQ_QUEUE>) {
+        let daq::SharedResources {
+            xcp: mut slave,
+            mut tx,
+            mut aux_tx,
+            ..
+        } = cx.shared;
+        let mut lost = 0u32;
+        while let Ok(sample) = receiver.recv().await {
+            let packets = Packets::sample(&sample, &mut slave);
+            lost = lost.wrapping_add(send_xcp(daq_link(), packets.iter(), &mut tx, &mut aux_tx));
+            store_daq_dropped(lost);
+        }
+    }
+
     /// Configuration changes, one at a time, between control steps (lowest priority):
     /// parameter sets are validated here, outside any lock, and swapped in under a short one.
     #[task(priority = 1, shared = [app, tx])]
@@ -366,6 +705,13 @@ mod app {
                     result
                 }),
             };
+            if matches!(
+                request.command,
+                Ok(Command::SetParam { .. } | Command::SetWatchdog { .. })
+            ) || (request.command.is_err() && matches!(request.command_raw, 4 | 5))
+            {
+                calibration::note_change(result);
+            }
             let mode = app.lock(|a| a.controller().mode());
             crate::log!(
                 "command {} index {}: result {}",
@@ -389,9 +735,12 @@ mod app {
 /// The QEMU build's final report (semihosting stdout) and exit.
 #[cfg(feature = "qemu")]
 mod report {
+    use core::sync::atomic::Ordering;
+
     use cortex_m_semihosting::{debug, hprintln};
     use mil_firmware::application::Application;
 
+    use crate::app::DAQ_RUNNING;
     use crate::clock::{self, Calibration, Timings};
     use crate::port::TickInfo;
 
@@ -439,6 +788,14 @@ mod report {
             calibration.instructions(f64::from(p.min)),
             calibration.instructions(f64::from(p.max)),
         );
+        let q = &timings.post;
+        hprintln!(
+            "mil-firmware after the demand (measurement block stored{}): mean {:.1} instructions, min {:.0}, max {:.0}",
+            if DAQ_RUNNING.load(Ordering::Relaxed) { ", DAQ sample queued" } else { "; no DAQ running" },
+            calibration.instructions(q.mean()),
+            calibration.instructions(f64::from(q.min)),
+            calibration.instructions(f64::from(q.max)),
+        );
         let [parse, decode, step, encode, format] = timings
             .parts
             .map(|t| t.mean() * calibration.instructions_per_count);
@@ -469,7 +826,7 @@ mod report {
         // (`mil-can`'s `qemu_budget` example).
         let n = app.counters();
         hprintln!(
-            "mil-firmware figures: measurements={} steps={} missed={} late={} malformed={} comm_timeouts={} core_count={} core_min={:.1} core_mean={:.2} core_max={:.1} core_first={:.1} path_min={:.1} path_mean={:.2} path_max={:.1} parse={:.2} decode={:.2} step={:.2} encode={:.2} format={:.2} instructions_per_count={:.6} empty_window={:.3} stack_used={} stack_region={} watchdog_limit={}",
+            "mil-firmware figures: measurements={} steps={} missed={} late={} malformed={} comm_timeouts={} core_count={} core_min={:.1} core_mean={:.2} core_max={:.1} core_first={:.1} path_min={:.1} path_mean={:.2} path_max={:.1} parse={:.2} decode={:.2} step={:.2} encode={:.2} format={:.2} post_min={:.1} post_mean={:.2} post_max={:.1} daq_running={} daq_dropped={} instructions_per_count={:.6} empty_window={:.3} stack_used={} stack_region={} watchdog_limit={}",
             n.measurements,
             n.steps,
             n.missed,
@@ -489,6 +846,14 @@ mod report {
             step,
             encode,
             format,
+            calibration.instructions(f64::from(q.min)),
+            calibration.instructions(q.mean()),
+            calibration.instructions(f64::from(q.max)),
+            u8::from(DAQ_RUNNING.load(Ordering::Relaxed)),
+            mil_firmware::calibration::measurement_words()
+                .get(mil_firmware::calibration::meas::DAQ_DROPPED)
+                .copied()
+                .unwrap_or(0),
             calibration.instructions_per_count,
             calibration.empty_window,
             stack_used,

@@ -5,7 +5,7 @@
 //! | | board (default) | QEMU (`--features qemu`) |
 //! | --- | --- | --- |
 //! | clocks | HSE 8 MHz → PLL → 168 MHz (APB1 42 MHz) | HSI 16 MHz (QEMU emulates no PLL) |
-//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX), 1 Mbit/s, FIFO0 interrupt `CAN1_RX0` | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes |
+//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX), 1 Mbit/s, FIFO0 interrupt `CAN1_RX0`; XCP on the same bus | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes; XCP also on USART2 (PA2/PA3, QEMU `-serial` 1, interrupt `USART2`) |
 //! | tick | TIM2 at the sample rate (2 kHz) | TIM2 every [`QEMU_TICK_US`](mil_firmware::config::QEMU_TICK_US) of QEMU time; stopped for good once the watchdog is switched off |
 //! | control-path clock ([`crate::clock::Clock`]) | SysTick, core cycles (started by `main`) | TIM5, prescaler 0: 1 GHz of QEMU virtual time, one count per instruction at `-icount shift=0` (started here) |
 
@@ -26,9 +26,11 @@ pub use qemu::*;
 /// The board: bxCAN on CAN1, TIM2 at the sample rate.
 #[cfg(not(feature = "qemu"))]
 mod board {
+    use core::sync::atomic::{AtomicU32, Ordering};
+
     use bxcan::filter::Mask32;
     use bxcan::{Fifo, Interrupt, StandardId};
-    use mil_firmware::config::SAMPLE_RATE_HZ;
+    use mil_firmware::config::{SAMPLE_RATE_HZ, XCP_COMMAND_ID};
     use mil_firmware::link::{Transport, LAYOUT};
     use mil_frames::RawFrame;
     use stm32f4xx_hal::can::Can;
@@ -50,6 +52,9 @@ mod board {
     /// `BTR = (SJW-1) << 24 | (BS2-1) << 20 | (BS1-1) << 16 | (BRP-1)`.
     pub const CAN_BTR: u32 = (1 << 20) | (10 << 16) | 2;
 
+    /// Frames of lower priority replaced in a busy mailbox by a higher-priority one (lost).
+    pub static TX_DISPLACED: AtomicU32 = AtomicU32::new(0);
+
     /// Transmit half: bxCAN's three mailboxes.
     pub struct Tx(bxcan::Tx<Can<CAN1>>);
     /// Receive half: FIFO 0.
@@ -59,8 +64,9 @@ mod board {
 
     impl Transport for Tx {
         /// Queues into a free mailbox. When all three are busy, bxCAN replaces a pending
-        /// frame of lower priority (higher ID: a Status or CommandAck behind a Demand): that
-        /// frame is lost and reported as not queued; otherwise a full queue refuses the frame.
+        /// frame of lower priority (higher ID: a Status, CommandAck or XCP packet behind a
+        /// Demand): the new frame is queued, the replaced one is lost and counted in
+        /// [`TX_DISPLACED`]; otherwise a full queue refuses the frame (`false`).
         fn queue(&mut self, f: &RawFrame) -> bool {
             let Some(id) = StandardId::new(f.id) else {
                 return false;
@@ -69,13 +75,32 @@ mod board {
                 return false;
             };
             match self.0.transmit(&bxcan::Frame::new_data(id, data)) {
-                Ok(status) => status.dequeued_frame().is_none(),
+                Ok(status) => {
+                    if status.dequeued_frame().is_some() {
+                        TX_DISPLACED.fetch_add(1, Ordering::Relaxed);
+                    }
+                    true
+                }
                 Err(_) => false,
             }
         }
     }
 
     impl Port for Tx {
+        fn flush(&mut self) {}
+    }
+
+    /// The board has no second link (XCP shares CAN1): a transmit half that refuses every
+    /// frame, so that both builds share one task layout.
+    pub struct AuxTx;
+
+    impl Transport for AuxTx {
+        fn queue(&mut self, _: &RawFrame) -> bool {
+            false
+        }
+    }
+
+    impl Port for AuxTx {
         fn flush(&mut self) {}
     }
 
@@ -94,6 +119,8 @@ mod board {
         pub rx: Rx,
         /// Tick timer, running, interrupt enabled.
         pub tick: Tick,
+        /// No second link on the board.
+        pub aux_tx: AuxTx,
     }
 
     /// Clocks, CAN1 and TIM2. `None` if a peripheral refuses its configuration.
@@ -110,13 +137,17 @@ mod board {
             .set_bit_timing(CAN_BTR)
             .set_automatic_retransmit(true)
             .leave_disabled();
-        // Hardware filter: the MiL range (base .. base + 0x3F); everything else never reaches
-        // the CPU. Frames inside it that are not ours are counted by the decoder.
+        // Hardware filter, bank 0: the MiL range (base .. base + 0x3F); everything else but
+        // XCP never reaches the CPU. Frames inside it that are not ours are counted by the decoder.
         let (first, _) = LAYOUT.id_range();
         let id = StandardId::new(first)?;
         let mask = StandardId::new(0x7C0)?;
+        // Bank 1: the XCP command ID exactly.
+        let xcp = StandardId::new(XCP_COMMAND_ID)?;
+        let exact = StandardId::new(0x7FF)?;
         can.modify_filters()
-            .enable_bank(0, Fifo::Fifo0, Mask32::frames_with_std_id(id, mask));
+            .enable_bank(0, Fifo::Fifo0, Mask32::frames_with_std_id(id, mask))
+            .enable_bank(1, Fifo::Fifo0, Mask32::frames_with_std_id(xcp, exact));
         can.enable_interrupt(Interrupt::Fifo0MessagePending);
         nb::block!(can.enable_non_blocking()).ok()?;
         let (tx, rx0, _rx1) = can.split();
@@ -127,18 +158,19 @@ mod board {
             tx: Tx(tx),
             rx: Rx(rx0),
             tick: Tick(tick),
+            aux_tx: AuxTx,
         })
     }
 }
 
-/// QEMU: SLCAN over USART1, TIM2 measured against the clock (TIM5).
+/// QEMU: SLCAN over USART1 (the MiL link) and USART2 (the XCP port), TIM2 measured against
+/// the clock (TIM5).
 #[cfg(feature = "qemu")]
 mod qemu {
-    use embedded_hal_nb::serial::Write as _;
     use mil_firmware::config::QEMU_TICK_US;
     use mil_firmware::link::{slcan_line, Transport};
     use mil_frames::RawFrame;
-    use stm32f4xx_hal::pac::{self, TIM2, USART1};
+    use stm32f4xx_hal::pac::{self, TIM2, USART1, USART2};
     use stm32f4xx_hal::prelude::*;
     use stm32f4xx_hal::rcc::Config;
     use stm32f4xx_hal::serial::{self, Serial};
@@ -150,18 +182,34 @@ mod qemu {
     /// Longest SLCAN line with its `\r`.
     const LINE: usize = mil_frames::slcan::MAX_LINE + 1;
 
-    /// Transmit half: lines are formatted into a buffer, [`Port::flush`] writes them.
-    pub struct Tx {
-        usart: serial::Tx<USART1, u8>,
+    /// A transmit half: lines are formatted into a buffer, [`Port::flush`] writes them.
+    pub struct SlcanTx<W> {
+        usart: W,
         buf: [u8; 4 * LINE],
         len: usize,
     }
-    /// Receive half.
+    /// The transmit half of the MiL link (USART1).
+    pub type Tx = SlcanTx<serial::Tx<USART1, u8>>;
+    /// The transmit half of the XCP port (USART2).
+    pub type AuxTx = SlcanTx<serial::Tx<USART2, u8>>;
+    /// Receive half of the MiL link (USART1).
     pub struct Rx(pub serial::Rx<USART1, u8>);
+    /// Receive half of the XCP port (USART2).
+    pub struct AuxRx(pub serial::Rx<USART2, u8>);
     /// The watchdog tick timer (1 MHz nominal counter; QEMU clocks it faster).
     pub struct Tick(Counter<TIM2, 1_000_000>);
 
-    impl Tx {
+    impl<W> SlcanTx<W> {
+        fn new(usart: W) -> Self {
+            Self {
+                usart,
+                buf: [0; 4 * LINE],
+                len: 0,
+            }
+        }
+    }
+
+    impl<W: embedded_hal_nb::serial::Write<u8>> SlcanTx<W> {
         /// Appends raw bytes (SLCAN replies); flushes first when the buffer is full.
         pub fn write(&mut self, bytes: &[u8]) {
             if self.len + bytes.len() > self.buf.len() {
@@ -174,7 +222,7 @@ mod qemu {
         }
     }
 
-    impl Transport for Tx {
+    impl<W: embedded_hal_nb::serial::Write<u8>> Transport for SlcanTx<W> {
         /// Formats the frame as an SLCAN line into the buffer (that is "queued"; the write
         /// follows in [`Port::flush`]).
         fn queue(&mut self, frame: &RawFrame) -> bool {
@@ -194,7 +242,7 @@ mod qemu {
         }
     }
 
-    impl Port for Tx {
+    impl<W: embedded_hal_nb::serial::Write<u8>> Port for SlcanTx<W> {
         /// Blocking writes (QEMU 7.2 never raises TXE interrupts).
         fn flush(&mut self) {
             let n = self.len;
@@ -241,6 +289,10 @@ mod qemu {
         pub tx: Tx,
         /// Receive half, RXNE interrupt enabled.
         pub rx: Rx,
+        /// XCP port transmit half (USART2).
+        pub aux_tx: AuxTx,
+        /// XCP port receive half, RXNE interrupt enabled.
+        pub aux_rx: AuxRx,
         /// Tick timer, running, interrupt enabled.
         pub tick: Tick,
         /// The tick's calibration.
@@ -263,6 +315,14 @@ mod qemu {
         )
         .ok()?;
         let (usart, mut rx) = serial.split();
+        let aux = Serial::new(
+            dp.USART2,
+            (gpioa.pa2, gpioa.pa3),
+            serial::config::Config::default().baudrate(115_200.bps()),
+            &mut rcc,
+        )
+        .ok()?;
+        let (aux_usart, mut aux_rx) = aux.split();
         // TIM2 runs at a rate of QEMU's choosing: measure it against the clock (TIM5, 1 GHz
         // of virtual time) over a busy wait, then program the tick for QEMU_TICK_US.
         let mut tick = dp.TIM2.counter::<1_000_000>(&mut rcc);
@@ -281,13 +341,12 @@ mod qemu {
         tick.start(timer_counts.micros()).ok()?;
         tick.listen(Event::Update);
         rx.listen();
+        aux_rx.listen();
         Some(Hardware {
-            tx: Tx {
-                usart,
-                buf: [0; 4 * LINE],
-                len: 0,
-            },
+            tx: SlcanTx::new(usart),
             rx: Rx(rx),
+            aux_tx: SlcanTx::new(aux_usart),
+            aux_rx: AuxRx(aux_rx),
             tick: Tick(tick),
             tick_info: TickInfo {
                 timer_per_count,

@@ -18,12 +18,159 @@
 //! so the control step never waits on it; the XCP task runs at the configuration task's
 //! priority, one command at a time, so no other change comes in between.
 
-use mil_xcp::{Calibration, Memory, Page, Rejected};
+use mil_frames::RawFrame;
+use mil_xcp::{Calibration, Memory, Page, Platform, Region, Rejected, SlaveConfig};
 
 use crate::application::{Application, Command};
-use crate::calibration::{self, Settings, PAGE_BYTES, REFERENCE};
-use crate::config::Prepared;
+use crate::calibration::{
+    self, meas, Settings, MEASUREMENTS, MEASUREMENT_BYTES, PAGE_BYTES, REFERENCE,
+};
+use crate::config::{Prepared, SAMPLE_RATE_HZ, XCP_ID, XCP_RESPONSE_ID};
 use crate::params::{code, INDEX_STATUS_PERIOD, INDEX_WATCHDOG};
+
+/// The control step's period (µs): XCP event channel 0's cycle and the DAQ clock's tick.
+pub const STEP_PERIOD_US: u32 = 1_000_000 / SAMPLE_RATE_HZ;
+
+/// The slave's configuration on the board: the calibration region is the working page
+/// ([`calibration::WORKING`]) and the measurement region the measurement block, at their
+/// linked addresses (what the A2L file gives); event 0 is the control step.
+pub fn slave_config(secret: &'static [u8]) -> SlaveConfig {
+    SlaveConfig {
+        calibration: Region::new(calibration::working_address(), PAGE_BYTES as u32),
+        measurement: Region::new(calibration::measurement_address(), MEASUREMENT_BYTES as u32),
+        id: XCP_ID,
+        event_period_us: STEP_PERIOD_US,
+        secret,
+    }
+}
+
+/// Which of the board's links an XCP command came in on, so that its answer goes back
+/// there. The board has one CAN bus; the QEMU build has two SLCAN ports on one virtual bus
+/// (USART1, where the rig's lockstep runs, and USART2 for an XCP master such as pyxcp).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Link {
+    /// CAN1 on the board; USART1 in QEMU.
+    #[default]
+    Bus,
+    /// QEMU only: USART2.
+    Aux,
+}
+
+/// One received XCP command frame for the XCP task.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct XcpRequest {
+    /// The frame (ID [`crate::config::XCP_COMMAND_ID`]).
+    pub frame: RawFrame,
+    /// Where it came in.
+    pub link: Link,
+}
+
+/// An XCP packet (response or DTO, 1..=8 bytes) as a CAN frame on the response ID: DLC =
+/// the packet's length (no padding). `None` for an empty or over-long packet.
+pub fn response_frame(packet: &[u8]) -> Option<RawFrame> {
+    if packet.is_empty() {
+        return None;
+    }
+    RawFrame::from_parts(XCP_RESPONSE_ID, packet)
+}
+
+/// What DAQ samples at one control step: a copy of the measurement block taken right after
+/// the step (after its demand frame was queued), and the step's time. DAQ lists read their
+/// measurement entries from this copy, so a sample is consistent even when the DAQ task
+/// runs after the next step has begun; calibration entries are read from the page the
+/// controller runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepSample {
+    /// The measurement block's words.
+    pub words: [u32; MEASUREMENTS],
+    /// The DAQ timestamp (µs): steps since start × [`STEP_PERIOD_US`], wrapping.
+    pub time_us: u32,
+}
+
+impl StepSample {
+    /// The measurement block now (call it right after `calibration::record_step`).
+    pub fn take() -> Self {
+        let words = calibration::measurement_words();
+        let steps = words.get(meas::STEPS).copied().unwrap_or(0);
+        Self {
+            words,
+            time_us: steps.wrapping_mul(STEP_PERIOD_US),
+        }
+    }
+}
+
+impl Memory for StepSample {
+    fn read_calibration(&self, page: Page, offset: usize, out: &mut [u8]) {
+        calibration::read(board_page(page), offset, out);
+    }
+
+    fn read_measurement(&self, offset: usize, out: &mut [u8]) {
+        for (k, b) in out.iter_mut().enumerate() {
+            let at = offset.saturating_add(k);
+            *b = self
+                .words
+                .get(at / 4)
+                .map_or(0, |w| w.to_le_bytes().get(at % 4).copied().unwrap_or(0));
+        }
+    }
+}
+
+/// The board's [`Platform`]: the DAQ clock is the control step's time (steps since start ×
+/// [`STEP_PERIOD_US`], the same base as [`StepSample::time_us`]); the seed entropy comes
+/// from `entropy` (a free-running hardware counter) XOR-ed with a call counter.
+pub struct StepPlatform<F> {
+    entropy: F,
+    calls: u32,
+}
+
+impl<F: FnMut() -> u32> StepPlatform<F> {
+    /// A platform drawing seed entropy from `entropy`.
+    pub fn new(entropy: F) -> Self {
+        Self { entropy, calls: 0 }
+    }
+}
+
+impl<F: FnMut() -> u32> Platform for StepPlatform<F> {
+    fn seed_entropy(&mut self) -> u32 {
+        self.calls = self.calls.wrapping_add(0x9E37_79B9);
+        (self.entropy)() ^ self.calls
+    }
+
+    fn now_us(&self) -> u32 {
+        calibration::measurement_words()
+            .get(meas::STEPS)
+            .copied()
+            .unwrap_or(0)
+            .wrapping_mul(STEP_PERIOD_US)
+    }
+}
+
+fn board_page(page: Page) -> calibration::Page {
+    match page {
+        Page::Working => calibration::Page::Working,
+        Page::Reference => calibration::Page::Reference,
+    }
+}
+
+/// The CommandAck code of an XCP rejection (for the measurement block's
+/// `calibration_last_rejection`).
+pub fn rejection_code(r: Rejected) -> u8 {
+    match r {
+        Rejected::NotFinite => code::NOT_FINITE,
+        Rejected::OutOfRange => code::OUT_OF_RANGE,
+        Rejected::Unstable => code::UNSTABLE,
+        Rejected::Inconsistent => code::INCONSISTENT,
+    }
+}
+
+/// Records a calibration change's outcome in the measurement block and passes it on.
+fn noted(result: Result<(), Rejected>) -> Result<(), Rejected> {
+    calibration::note_change(match result {
+        Ok(()) => code::OK,
+        Err(r) => rejection_code(r),
+    });
+    result
+}
 
 /// Access to the shared application: `with` runs `f` under the application's lock (on the
 /// board an RTIC resource lock; on the host a plain borrow).
@@ -57,10 +204,13 @@ pub fn rejection(c: u8) -> Rejected {
 impl<A: AppAccess> Target<A> {
     /// The target over `app`; the controller runs on the working page.
     pub fn new(app: A) -> Self {
-        Self {
-            app,
-            ecu_page: Page::Working,
-        }
+        Self::with_page(app, Page::Working)
+    }
+
+    /// The target over `app` with the controller running on `ecu_page` (the firmware makes
+    /// one per command, with the slave's [`mil_xcp::Slave::ecu_page`]).
+    pub fn with_page(app: A, ecu_page: Page) -> Self {
+        Self { app, ecu_page }
     }
 
     /// The page the controller runs on.
@@ -105,11 +255,7 @@ impl<A: AppAccess> Target<A> {
 
 impl<A> Memory for Target<A> {
     fn read_calibration(&self, page: Page, offset: usize, out: &mut [u8]) {
-        let page = match page {
-            Page::Working => calibration::Page::Working,
-            Page::Reference => calibration::Page::Reference,
-        };
-        calibration::read(page, offset, out);
+        calibration::read(board_page(page), offset, out);
     }
 
     fn read_measurement(&self, offset: usize, out: &mut [u8]) {
@@ -119,6 +265,25 @@ impl<A> Memory for Target<A> {
 
 impl<A: AppAccess> Calibration for Target<A> {
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), Rejected> {
+        noted(self.write_page(offset, data))
+    }
+
+    fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
+        let mut bytes = [0u8; PAGE_BYTES];
+        for (chunk, word) in bytes.chunks_exact_mut(4).zip(REFERENCE.iter()) {
+            chunk.copy_from_slice(&word.to_le_bytes());
+        }
+        noted(self.write_page(0, &bytes))
+    }
+
+    fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected> {
+        noted(self.select_page(page))
+    }
+}
+
+impl<A: AppAccess> Target<A> {
+    /// [`Calibration::write`] without the bookkeeping.
+    fn write_page(&mut self, offset: usize, data: &[u8]) -> Result<(), Rejected> {
         // The base is the working page as it is (the running values, or the change being
         // prepared while the controller runs on the reference page).
         let (base, settings) =
@@ -138,15 +303,8 @@ impl<A: AppAccess> Calibration for Target<A> {
         Ok(())
     }
 
-    fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
-        let mut bytes = [0u8; PAGE_BYTES];
-        for (chunk, word) in bytes.chunks_exact_mut(4).zip(REFERENCE.iter()) {
-            chunk.copy_from_slice(&word.to_le_bytes());
-        }
-        self.write(0, &bytes)
-    }
-
-    fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected> {
+    /// [`Calibration::select_ecu_page`] without the bookkeeping.
+    fn select_page(&mut self, page: Page) -> Result<(), Rejected> {
         let words = match page {
             Page::Working => calibration::working_words(),
             Page::Reference => REFERENCE,

@@ -12,7 +12,11 @@
 //!   plus 4 × its slot;
 //! - `MOD_PAR` with the two `MEMORY_SEGMENT`s (calibration data with a working and a
 //!   reference page, measurement variables) and `MOD_COMMON` (Intel byte order);
-//! - one `COMPU_METHOD` (`IDENTICAL`) per unit, one `RECORD_LAYOUT`.
+//! - one `COMPU_METHOD` (`IDENTICAL`) per unit, one `RECORD_LAYOUT`;
+//! - the XCP interface: `IF_DATA XCP` with `PROTOCOL_LAYER` and `XCP_ON_CAN` (the CAN IDs
+//!   of the build, `MIL_XCP_CAN_IDS`, see `firmware/controller/build.rs`), described by the
+//!   file's own `A2ML` ([`A2ML`], [`xcp_interface`]). The IDs come from the host build of
+//!   `mil-firmware`'s tables: build the A2L with the same `MIL_XCP_CAN_IDS` as the firmware.
 //!
 //! The addresses come from the ELF's symbol table: the statics' symbols are found by their
 //! demangled paths, so the firmware needs no `#[no_mangle]` (no `unsafe`). Build the ELF
@@ -190,6 +194,7 @@ pub fn generate(layout: &Layout, version: &str) -> String {
         w,
         "    /begin MOD_COMMON \"\"\n      BYTE_ORDER MSB_LAST\n      ALIGNMENT_BYTE 1\n      ALIGNMENT_WORD 2\n      ALIGNMENT_LONG 4\n      ALIGNMENT_FLOAT32_IEEE 4\n    /end MOD_COMMON"
     );
+    w.push_str(A2ML);
     let _ = writeln!(w, "    /begin MOD_PAR \"STM32F405\"");
     let _ = writeln!(
         w,
@@ -220,9 +225,151 @@ pub fn generate(layout: &Layout, version: &str) -> String {
     for (slot, item) in MEAS_ITEMS.iter().enumerate() {
         measurement(w, layout, slot, item);
     }
+    w.push_str(&xcp_interface());
     let _ = writeln!(w, "  /end MODULE");
     let _ = writeln!(w, "/end PROJECT");
     a
+}
+
+/// The A2ML (the IF_DATA grammar) for the XCP interface description this file carries: the
+/// part of ASAM MCD-1 XCP's A2ML that [`xcp_interface`] uses, in the standard's structure
+/// (`IF_DATA XCP` holding `PROTOCOL_LAYER` and `XCP_ON_CAN` with its CAN parameters), so
+/// that a tool reading the standard's layout reads the same values.
+pub const A2ML: &str = r#"    /begin A2ML
+      struct Protocol_Layer {
+        uint;  /* XCP protocol layer version */
+        uint;  /* T1 (ms) */
+        uint;  /* T2 (ms) */
+        uint;  /* T3 (ms) */
+        uint;  /* T4 (ms) */
+        uint;  /* T5 (ms) */
+        uint;  /* T6 (ms) */
+        uint;  /* T7 (ms) */
+        uchar; /* MAX_CTO */
+        uint;  /* MAX_DTO */
+        enum {
+          "BYTE_ORDER_MSB_LAST" = 0,
+          "BYTE_ORDER_MSB_FIRST" = 1
+        };
+        enum {
+          "ADDRESS_GRANULARITY_BYTE" = 1,
+          "ADDRESS_GRANULARITY_WORD" = 2,
+          "ADDRESS_GRANULARITY_DWORD" = 4
+        };
+        taggedstruct {
+          ("OPTIONAL_CMD" enum {
+            "GET_COMM_MODE_INFO" = 251,
+            "GET_ID" = 250,
+            "GET_SEED" = 248,
+            "UNLOCK" = 247,
+            "SHORT_UPLOAD" = 244,
+            "DOWNLOAD_NEXT" = 239,
+            "SET_CAL_PAGE" = 235,
+            "GET_CAL_PAGE" = 234,
+            "GET_PAG_PROCESSOR_INFO" = 233,
+            "GET_SEGMENT_INFO" = 232,
+            "GET_PAGE_INFO" = 231,
+            "COPY_CAL_PAGE" = 228,
+            "GET_DAQ_CLOCK" = 220,
+            "GET_DAQ_PROCESSOR_INFO" = 218,
+            "GET_DAQ_RESOLUTION_INFO" = 217,
+            "GET_DAQ_EVENT_INFO" = 215,
+            "FREE_DAQ" = 214,
+            "ALLOC_DAQ" = 213,
+            "ALLOC_ODT" = 212,
+            "ALLOC_ODT_ENTRY" = 211
+          })*;
+          "SEED_AND_KEY_EXTERNAL_FUNCTION" char[256];
+        };
+      };
+      struct CAN_Parameters {
+        uint;  /* XCP on CAN version */
+        taggedstruct {
+          "CAN_ID_BROADCAST" ulong;
+          "CAN_ID_MASTER" ulong;
+          "CAN_ID_SLAVE" ulong;
+          "BAUDRATE" ulong;
+          "SAMPLE_POINT" uchar;
+          "SAMPLE_RATE" enum {
+            "SINGLE" = 1,
+            "TRIPLE" = 3
+          };
+          "BTL_CYCLES" uchar;
+          "SJW" uchar;
+          "SYNC_EDGE" enum {
+            "SINGLE" = 1,
+            "DUAL" = 2
+          };
+          "MAX_DLC_REQUIRED";
+        };
+      };
+      block "IF_DATA" taggedunion if_data {
+        "XCP" struct {
+          taggedstruct {
+            block "PROTOCOL_LAYER" struct Protocol_Layer;
+            (block "XCP_ON_CAN" struct {
+              struct CAN_Parameters;
+              taggedstruct {
+                block "PROTOCOL_LAYER" struct Protocol_Layer;
+              };
+            })*;
+          };
+        };
+      };
+    /end A2ML
+"#;
+
+/// Bit rate of the board's CAN bus (bit/s).
+pub const CAN_BAUDRATE: u32 = 1_000_000;
+
+/// The module's `IF_DATA XCP`: protocol layer (XCP 1.0 protocol layer version 0x0100,
+/// timeouts T1 = 1 s, T2 = 2 s, MAX_CTO = MAX_DTO = 8, Intel byte order, byte granularity,
+/// the optional commands the board offers) and XCP on CAN (the build's command and response
+/// IDs from `mil_firmware::config`, 1 Mbit/s, sample point 86 %, responses not padded).
+pub fn xcp_interface() -> String {
+    use mil_firmware::config::{XCP_COMMAND_ID, XCP_RESPONSE_ID};
+    let optional = [
+        "GET_COMM_MODE_INFO",
+        "GET_ID",
+        "GET_SEED",
+        "UNLOCK",
+        "SHORT_UPLOAD",
+        "DOWNLOAD_NEXT",
+        "SET_CAL_PAGE",
+        "GET_CAL_PAGE",
+        "GET_PAG_PROCESSOR_INFO",
+        "GET_SEGMENT_INFO",
+        "GET_PAGE_INFO",
+        "COPY_CAL_PAGE",
+        "GET_DAQ_CLOCK",
+        "GET_DAQ_PROCESSOR_INFO",
+        "GET_DAQ_RESOLUTION_INFO",
+        "GET_DAQ_EVENT_INFO",
+        "FREE_DAQ",
+        "ALLOC_DAQ",
+        "ALLOC_ODT",
+        "ALLOC_ODT_ENTRY",
+    ];
+    let mut w = String::new();
+    let _ = writeln!(w, "    /begin IF_DATA XCP");
+    let _ = writeln!(w, "      /begin PROTOCOL_LAYER");
+    let _ = writeln!(
+        w,
+        "        0x0100 1000 2000 0 0 0 0 0 8 8 BYTE_ORDER_MSB_LAST ADDRESS_GRANULARITY_BYTE"
+    );
+    for c in optional {
+        let _ = writeln!(w, "        OPTIONAL_CMD {c}");
+    }
+    let _ = writeln!(w, "      /end PROTOCOL_LAYER");
+    let _ = writeln!(w, "      /begin XCP_ON_CAN");
+    let _ = writeln!(w, "        0x0100");
+    let _ = writeln!(w, "        CAN_ID_MASTER 0x{XCP_COMMAND_ID:X}");
+    let _ = writeln!(w, "        CAN_ID_SLAVE 0x{XCP_RESPONSE_ID:X}");
+    let _ = writeln!(w, "        BAUDRATE {CAN_BAUDRATE}");
+    let _ = writeln!(w, "        SAMPLE_POINT 86");
+    let _ = writeln!(w, "      /end XCP_ON_CAN");
+    let _ = writeln!(w, "    /end IF_DATA");
+    w
 }
 
 fn characteristic(w: &mut String, layout: &Layout, slot: usize, item: &CalItem) {

@@ -81,6 +81,32 @@ fn every_address_and_limit_matches_the_elf_and_the_tables() {
         assert_eq!(m.lower_limit, f64::from(item.min), "{}", item.name);
         assert_eq!(m.upper_limit, f64::from(item.max), "{}", item.name);
     }
+    // The XCP interface: valid against the file's own A2ML, with the build's CAN IDs.
+    assert_eq!(module.if_data.len(), 1);
+    let if_data = &module.if_data[0];
+    assert!(if_data.ifdata_valid, "IF_DATA does not match the A2ML");
+    let tree = format!("{:?}", if_data.ifdata_items);
+    for wanted in [
+        "CAN_ID_MASTER",
+        "CAN_ID_SLAVE",
+        "BAUDRATE",
+        "PROTOCOL_LAYER",
+    ] {
+        assert!(tree.contains(wanted), "{wanted} missing in {tree}");
+    }
+    for id in [
+        mil_firmware::config::XCP_COMMAND_ID,
+        mil_firmware::config::XCP_RESPONSE_ID,
+    ] {
+        assert!(
+            text.contains(&format!("0x{id:X}")),
+            "CAN ID {id:#X} missing"
+        );
+    }
+    // The check has teeth: a misspelt tag does not match the A2ML.
+    let broken = text.replace("CAN_ID_MASTER 0x", "CAN_ID_MASTR 0x");
+    let (broken, _) = a2lfile::load_from_string(&broken, None, false).expect("lenient parse");
+    assert!(!broken.project.module[0].if_data[0].ifdata_valid);
     // The memory segments span the two blocks.
     let segments = &module.mod_par.as_ref().expect("MOD_PAR").memory_segment;
     let spans: Vec<(u32, u32)> = segments.iter().map(|s| (s.address, s.size)).collect();
