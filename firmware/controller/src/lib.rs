@@ -52,7 +52,10 @@
 //! | --- | --- | --- | --- |
 //! | `can_rx` (board) / `usart_rx` (QEMU) | 3 (highest) | bxCAN FIFO 0 message pending (`CAN1_RX0`) / USART1 RXNE | decodes the frame; a measurement runs one controller step and queues the Demand frame (and every K-th step the Status frame) before returning; commands go to `configure` through a 4-deep channel (full: CommandAck `BUSY`) |
 //! | `watchdog` | 2 | TIM2 update | the communication watchdog tick (below) |
+//! | `aux_rx` (QEMU only) | 2 | USART2 RXNE | the XCP port's SLCAN lines: XCP command frames go to `xcp` |
+//! | `daq` | 2 (software task) | a step sample in its 16-deep channel | samples the running XCP DAQ lists on the copy of the measurement block the receive task queued after the step, sends the DTOs |
 //! | `configure` | 1 (software task) | a command in the channel | validates and applies one command, answers with a CommandAck |
+//! | `xcp` | 1 (software task) | an XCP command frame in its 48-deep channel | one command through `mil_xcp::Slave` and [`xcp::Target`]: calibration writes validated on a copy, swapped in under the application's short lock; answers on the link the command came from |
 //! | `idle` | – | – | `wfi`; on the board it refreshes the stack high-water mark about once a second |
 //!
 //! The application state ([`application::Application`]: controller, counters, watchdog) and
@@ -62,6 +65,49 @@
 //! ([`application::prepare_change`] → `PreparedParams::new`, on a copy of the running set)
 //! and swapped in with `Controller::swap_params` under a short lock, i.e. between two steps;
 //! a rejected value changes nothing.
+//!
+//! ## XCP on CAN (calibration and measurement)
+//!
+//! CANape, INCA, pyxcp or `mil param` / `mil daq` reach the calibration page and the
+//! measurement block ([`calibration`]) through the XCP slave of `mil-xcp`, described by the A2L
+//! file `mil a2l --elf FIRMWARE --out mil.a2l` generates from this build's ELF:
+//! - **CAN IDs** (build-time `MIL_XCP_CAN_IDS=CMD,RES`, default `0x7E0,0x7E1`; `build.rs`
+//!   refuses IDs inside or below the MiL range, so measurement, demand, status and command
+//!   frames always win arbitration). Board: CAN1, hardware filter bank 1 passes the command
+//!   ID. QEMU: the XCP frames work on USART1 (the same link as the lockstep) and on USART2
+//!   (QEMU `-serial` 1, a second SLCAN port on the same virtual bus for a master such as
+//!   pyxcp); answers go back to the port the command came from, DAQ packets to the port of
+//!   the last CONNECT.
+//! - **Seed & key secret** (build-time `MIL_XCP_SECRET`, text or `hex:...`, at least 16
+//!   bytes; never committed). Unset: the QEMU build uses `mil-xcp`'s public test secret
+//!   (`FAKE-TEST-SECRET-do-not-use-0000`: the QEMU build is a test build), the board build has
+//!   none and answers no XCP command at all (the build prints a warning; XCP frames are
+//!   counted as foreign).
+//! - **Calibration**: a write (DOWNLOAD, a block, COPY_CAL_PAGE or an ECU page switch) is
+//!   validated in the `xcp` task as a whole parameter set on a copy (finite, within the A2L
+//!   limits, filter stable, consistent) and swapped in under the application's lock, i.e.
+//!   between two control steps; a refused write answers the XCP error (ERR_OUT_OF_RANGE,
+//!   ERR_GENERIC, ERR_ACCESS_DENIED outside the page, ERR_WRITE_PROTECTED into the reference
+//!   page) and changes nothing. The measurement block's `calibration_changes` counts applied
+//!   changes, `calibration_last_rejection` keeps the reason code of the last refusal (XCP and
+//!   Command frames alike).
+//! - **DAQ**: event channel 0 is the control step (cycle 500 µs); the DAQ timestamp is the
+//!   step's time (steps × 500 µs), as is GET_DAQ_CLOCK. After each step, once the demand frame
+//!   is queued, the receive task stores the step's signals into the measurement block and,
+//!   while a list runs, queues a copy of it (44 bytes) for the `daq` task; the DTOs are built
+//!   from that copy, so a sample is consistent even when the `daq` task runs late. A sample
+//!   that finds the queue full is dropped and counted (`daq_dropped`), as is a DTO the
+//!   transport refuses (on the board a demand frame displaces a pending lower-priority XCP
+//!   frame from a busy mailbox, never the reverse). The control step never waits on XCP: the
+//!   `xcp` task holds the slave (shared with `daq`, ceiling 2) and the application's lock
+//!   only for the swap.
+//! - Tests: `cargo test -p mil-firmware --lib` (the target through the slave; a proptest of
+//!   random XCP sessions: the running parameters always equal the validated ECU page);
+//!   `cargo test -p mil-can --test qemu_xcp` (QEMU, USART1: the A2L of the real ELF, unlock,
+//!   writes reaching the demand at a step boundary, refusals, pages, DAQ in step with the
+//!   demand frames); `firmware/controller/qemu/xcp_pyxcp.py --elf ELF --a2l A2L` (pyxcp
+//!   0.29 on USART2 through python-can's slcan, in CI); `cargo run -p mil-can --example
+//!   qemu_budget` (the control step with a DAQ list running).
 //!
 //! ## Frame flow
 //!
@@ -198,13 +244,14 @@
 //!
 //! | figure | value |
 //! | --- | --- |
-//! | control path: CAN frame received → Demand frame encoded, ready to queue (decode, step with counters, encode) | 515.1 instructions mean (511–536 over 4000 steps; target ≤ 1000) |
-//! | parts | decode 178.0, step 283.1, encode 55.0 |
-//! | with QEMU's SLCAN transport (last byte read → Demand line queued) | 1056.6 mean (1021–1107; SLCAN parse 393.4 and format 148.0 stand in for the bxCAN FIFO read and mailbox write) |
-//! | stack high-water mark (stack painting, QEMU run, measured before the report formats anything) | 1020–1492 B of the 127 KiB region over five budget runs and the smoke test (where the receive interrupt preempts the lower tasks depends on host timing; earlier reports included the report's own float formatting, 3120 B) |
-//! | board ELF: flash (vector table + .text + .rodata + .data) | 25 424 B of 1 MiB |
-//! | board ELF: static RAM (.data + .bss + .uninit, incl. the 1 KiB RTT buffer) | 1 704 B of 128 KiB |
-//! | QEMU ELF: flash / static RAM | 62 432 B / 828 B (core::fmt for the report) |
+//! | control path: CAN frame received → Demand frame encoded, ready to queue (decode, step with counters, encode) | 522.1 instructions mean (518–543 over 4000 steps; target ≤ 1000); the same with an XCP DAQ list running |
+//! | parts | decode 183.0, step 285.1, encode 55.0 |
+//! | after the Demand is queued (same task): measurement block stored / + DAQ sample copied and queued for the `daq` task | 264.0 / 387.6 mean (max 468 / 592): DAQ costs the receive task 123.6 instructions a step, after the demand |
+//! | with QEMU's SLCAN transport (last byte read → Demand line queued) | 1085.6 mean (1050–1136; SLCAN parse 412.4 and format 151.0 stand in for the bxCAN FIFO read and mailbox write) |
+//! | stack high-water mark (stack painting, QEMU run, measured before the report formats anything) | 7 760 B of the 123 KiB region (1.0–1.5 KB before XCP; which path is deepest is not pinned down yet: probably `init`, which builds the XCP slave, about 2 KiB, by value) |
+//! | board ELF: flash (vector table + .text + .rodata + .data) | 62 060 B of 1 MiB (built without `MIL_XCP_SECRET`; the XCP slave's code is linked all the same) |
+//! | board ELF: static RAM (.data + .bss + .uninit, incl. the 1 KiB RTT buffer) | 6 040 B of 128 KiB (the slave's DAQ tables, the 48-deep XCP and 16-deep DAQ queues) |
+//! | QEMU ELF: flash / static RAM | 107 988 B / 5 332 B (core::fmt for the report) |
 //!
 //! Sizes from the ELF section headers (`mil_can::footprint`; the same as
 //! `llvm-size -A`). On the board the clock is SysTick, which counts core cycles; the board

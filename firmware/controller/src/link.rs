@@ -475,6 +475,7 @@ pub fn slcan_line(frame: &RawFrame, out: &mut [u8]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::XCP_COMMAND_ID;
     use crate::params::code;
     use mil_frames::{encode_command, encode_measurement};
     use std::vec::Vec;
@@ -672,6 +673,53 @@ mod tests {
             rate_limited: 0,
         };
         assert_eq!(demand_frame(&nan), f);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 2000, ..Default::default() })]
+
+        /// Random frames (IDs across the whole 11-bit range, the MiL range and the XCP
+        /// command ID; any length and payload) and random SLCAN lines: nothing panics,
+        /// every frame is stepped, counted, forwarded or answered, the only frames sent are
+        /// finite demands and statuses, and only the XCP command ID reaches the XCP task.
+        #[test]
+        fn random_frames_and_lines_are_handled(
+            frames in proptest::collection::vec(
+                (
+                    proptest::prop_oneof![0u16..0x800, 0x100u16..0x140, proptest::strategy::Just(XCP_COMMAND_ID)],
+                    0usize..=8,
+                    proptest::prelude::any::<[u8; 8]>(),
+                ),
+                1..50,
+            ),
+            lines in proptest::collection::vec(proptest::collection::vec(proptest::prelude::any::<u8>(), 0..30), 0..20),
+        ) {
+            let mut app = Application::new(COUNTER_MODULUS).unwrap();
+            let mut sink = Sink::default();
+            for (id, len, data) in frames {
+                let Some(frame) = RawFrame::from_parts(id, &data[..len]) else {
+                    continue;
+                };
+                sink.n = 0;
+                match on_frame(&mut app, &frame, &mut sink) {
+                    Handled::Xcp(f) => proptest::prop_assert_eq!(f.id, XCP_COMMAND_ID),
+                    _ => proptest::prop_assert_ne!(frame.id, XCP_COMMAND_ID),
+                }
+                for sent in sink.frames.iter().take(sink.n).flatten() {
+                    match decode(&LAYOUT, sent) {
+                        Ok(Message::Demand(d)) => proptest::prop_assert!(d.demand_n.is_finite()),
+                        Ok(Message::Status(_)) => {}
+                        other => proptest::prop_assert!(false, "sent {:?}", other),
+                    }
+                }
+            }
+            let mut session = SlcanSession::new();
+            for line in lines {
+                if let LineAction::Frame(f) = session.on_line(&line) {
+                    let _ = on_frame(&mut app, &f, &mut sink);
+                }
+            }
+        }
     }
 
     #[test]

@@ -320,7 +320,7 @@ impl<A: AppAccess> Target<A> {
 mod tests {
     use super::*;
     use crate::calibration::{test_lock, MEASUREMENT_BYTES, PAGE_BYTES};
-    use crate::config::TYRE;
+    use crate::config::{Prepared, TYRE, XCP_RESPONSE_ID};
     use mil_xcp::mock::{MockPlatform, TEST_SECRET};
     use mil_xcp::{compute_key, Region, Responses, Slave, SlaveConfig};
     use std::vec;
@@ -464,6 +464,62 @@ mod tests {
     }
 
     #[test]
+    fn daq_reads_the_step_copy_and_packets_become_response_frames() {
+        let _turn = test_lock();
+        let mut app = Application::new(256).expect("app");
+        let m = crate::application::Measurement {
+            channel: 0,
+            position_m: -1.0e-3,
+            road_m: 0.0,
+            counter: 0,
+        };
+        app.on_measurement(&m).expect("step");
+        calibration::record_step(&app);
+        let sample = StepSample::take();
+        assert_eq!(sample.words[meas::STEPS], 1);
+        assert_eq!(sample.time_us, STEP_PERIOD_US);
+        // The copy stays what it was when the block changes (the next step).
+        app.on_measurement(&crate::application::Measurement { counter: 1, ..m })
+            .expect("step");
+        calibration::record_step(&app);
+        let mut out = [0u8; 6];
+        sample.read_measurement(4 * meas::STEPS, &mut out);
+        assert_eq!(out, [1, 0, 0, 0, 0, 0], "bytes past the block read 0");
+        let mut pos = [0u8; 4];
+        sample.read_measurement(4 * meas::POSITION, &mut pos);
+        assert_eq!(f32::from_le_bytes(pos), -1.0e-3);
+        let mut k = [0u8; 4];
+        sample.read_calibration(Page::Reference, 0, &mut k);
+        assert_eq!(f32::from_le_bytes(k), TYRE.stiffness);
+        // The platform's clock is the same step time.
+        let platform = StepPlatform::new(|| 7);
+        assert_eq!(platform.now_us(), 2 * STEP_PERIOD_US);
+        // Packets: DLC = length, on the response ID; empty or over-long ones are not frames.
+        let f = response_frame(&[0xFF, 1, 2]).expect("frame");
+        assert_eq!((f.id, f.payload()), (XCP_RESPONSE_ID, &[0xFF, 1, 2][..]));
+        assert!(response_frame(&[]).is_none());
+        assert!(response_frame(&[0; 9]).is_none());
+    }
+
+    #[test]
+    fn calibration_outcomes_are_counted_in_the_measurement_block() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.connect_and_unlock();
+        let changes = calibration::measurement_words()[meas::CAL_CHANGES];
+        assert_eq!(s.download_f32(CAL + 4, 700.0), [0xFF]);
+        assert_eq!(
+            calibration::measurement_words()[meas::CAL_CHANGES],
+            changes + 1
+        );
+        assert_eq!(s.download_f32(CAL + 4, f32::INFINITY), [0xFE, 0x22]);
+        let w = calibration::measurement_words();
+        assert_eq!(w[meas::CAL_CHANGES], changes + 1);
+        assert_eq!(w[meas::CAL_REJECTION], u32::from(code::NOT_FINITE));
+        assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
+    }
+
+    #[test]
     fn a_whole_filter_goes_in_as_one_block_download() {
         let _turn = test_lock();
         let mut s = Session::new();
@@ -490,5 +546,98 @@ mod tests {
         assert_eq!((f.sections, f.section[0].alpha1), (1, 0.2));
         assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
         assert_eq!(s.target.app.params().filter[0].sections, 0);
+    }
+
+    /// A command for the fuzzer: mostly well-formed memory and page commands aimed at the
+    /// calibration page, its edges and beyond, with random values (NaN, huge, negative),
+    /// and random bytes.
+    fn command() -> impl proptest::strategy::Strategy<Value = Vec<u8>> {
+        use proptest::prelude::*;
+        let address = prop_oneof![
+            (0u32..PAGE_BYTES as u32 + 8).prop_map(|o| CAL.wrapping_add(o)),
+            (0u32..MEASUREMENT_BYTES as u32 + 8).prop_map(|o| MEAS.wrapping_add(o)),
+            any::<u32>(),
+            Just(CAL.wrapping_sub(4)),
+        ];
+        let value = prop_oneof![
+            any::<f32>(),
+            -1.0e6f32..1.0e6,
+            0.0f32..4.0,
+            Just(f32::NAN),
+            Just(1.0),
+            Just(0.0),
+        ];
+        prop_oneof![
+            (address.clone(), 1u8..=6, value.clone()).prop_map(|(a, n, v)| {
+                let a = a.to_le_bytes();
+                let v = v.to_le_bytes();
+                let mut c = vec![0xF6, 0, 0, 0, a[0], a[1], a[2], a[3], 0xF0, n];
+                c.extend_from_slice(&v);
+                c.extend_from_slice(&[v[0], v[1]]);
+                c
+            }),
+            (address, 1u8..=7).prop_map(|(a, n)| {
+                let a = a.to_le_bytes();
+                vec![0xF4, n, 0, 0, a[0], a[1], a[2], a[3]]
+            }),
+            (0u8..=0x83, 0u8..3).prop_map(|(mode, page)| vec![0xEB, mode, 0, page]),
+            Just(vec![0xE4, 0, 1, 0, 0]),
+            (1u8..=6, proptest::collection::vec(any::<u8>(), 6)).prop_map(|(n, d)| {
+                let mut c = vec![0xEF, n];
+                c.extend(d);
+                c
+            }),
+            proptest::collection::vec(any::<u8>(), 0..9),
+        ]
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 300, ..Default::default() })]
+
+        /// Random XCP command sequences through the slave into the running application:
+        /// nothing panics, the running parameters are always a valid set equal to what the
+        /// ECU page holds, the measurement block's signals are never written (only the
+        /// calibration counters move), and every answer is well-formed.
+        #[test]
+        fn random_xcp_sessions_only_ever_run_validated_parameters(
+            commands in proptest::collection::vec(command(), 1..40)
+        ) {
+            let _turn = test_lock();
+            let mut s = Session::new();
+            s.connect_and_unlock();
+            let meas_before = calibration::measurement_words();
+            for c in &commands {
+                // SET_MTA + DOWNLOAD pairs travel as two commands.
+                let parts: Vec<&[u8]> = if c.first() == Some(&0xF6) && c.len() > 8 {
+                    vec![&c[..8], &c[8..]]
+                } else {
+                    vec![&c[..]]
+                };
+                for p in parts {
+                    s.slave.handle(p, &mut s.target, &mut s.platform, &mut s.out);
+                    for r in s.out.iter() {
+                        proptest::prop_assert!(r.len() <= 8 && matches!(r[0], 0xFF | 0xFE));
+                    }
+                }
+                if !s.slave.connected() {
+                    s.connect_and_unlock();
+                }
+                let running = *s.target.app.params();
+                proptest::prop_assert!(Prepared::new(&running, crate::config::DT).is_ok());
+                let page = match s.target.ecu_page() {
+                    Page::Working => calibration::working_words(),
+                    Page::Reference => REFERENCE,
+                };
+                let (expected, _) = calibration::decode_page(&page).expect("the ECU page is valid");
+                proptest::prop_assert_eq!(expected.params(), &running);
+            }
+            proptest::prop_assert_eq!(
+                &calibration::measurement_words()[..meas::CAL_CHANGES],
+                &meas_before[..meas::CAL_CHANGES]
+            );
+            // Back to the defaults for the other tests.
+            s.send(&[0xEB, 0x83, 0, 0]);
+            s.send(&[0xE4, 0, 1, 0, 0]);
+        }
     }
 }

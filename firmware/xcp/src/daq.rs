@@ -67,6 +67,10 @@ struct List {
     event: u16,
     timestamp: bool,
     priority: u8,
+    /// Sample every `prescaler`-th event (1: every event).
+    prescaler: u8,
+    /// Events since the last sample (counts down to 0).
+    countdown: u8,
     selected: bool,
     running: bool,
 }
@@ -78,6 +82,8 @@ const EMPTY_LIST: List = List {
     event: 0,
     timestamp: false,
     priority: 0,
+    prescaler: 1,
+    countdown: 0,
     selected: false,
     running: false,
 };
@@ -290,6 +296,7 @@ impl Daq {
         list: u16,
         timestamp: bool,
         event: u16,
+        prescaler: u8,
         priority: u8,
     ) -> DaqResult<()> {
         let l = self.list_mut(list)?;
@@ -298,12 +305,14 @@ impl Daq {
         }
         l.timestamp = timestamp;
         l.event = event;
+        l.prescaler = prescaler.max(1);
+        l.countdown = 0;
         l.priority = priority;
         Ok(())
     }
 
-    /// GET_DAQ_LIST_MODE: (mode bits, event, priority).
-    pub fn mode(&self, list: u16) -> DaqResult<(u8, u16, u8)> {
+    /// GET_DAQ_LIST_MODE: (mode bits, event, prescaler, priority).
+    pub fn mode(&self, list: u16) -> DaqResult<(u8, u16, u8, u8)> {
         let l = self.list(list)?;
         let mut bits = 0;
         if l.selected {
@@ -315,7 +324,7 @@ impl Daq {
         if l.running {
             bits |= mode::RUNNING;
         }
-        Ok((bits, l.event, l.priority))
+        Ok((bits, l.event, l.prescaler, l.priority))
     }
 
     /// FIRST_PID of a list: the ODTs of all lower-numbered lists come first.
@@ -372,7 +381,9 @@ impl Daq {
             }
             1 => {
                 self.check(&l)?;
-                self.list_mut(list)?.running = true;
+                let l = self.list_mut(list)?;
+                l.running = true;
+                l.countdown = 0;
             }
             2 => {
                 self.check(&l)?;
@@ -401,6 +412,7 @@ impl Daq {
                 for l in self.lists.iter_mut().take(count) {
                     if l.selected {
                         l.running = true;
+                        l.countdown = 0;
                         l.selected = false;
                     }
                 }
@@ -421,18 +433,31 @@ impl Daq {
     /// Emit one DTO per ODT of every running list on `event` (see
     /// [`Slave::sample_daq`](crate::Slave::sample_daq)).
     pub fn sample(
-        &self,
+        &mut self,
         event: u16,
         timestamp_us: u32,
         calibration_page: Page,
         memory: &impl Memory,
         emit: &mut impl FnMut(&[u8]),
     ) {
+        // The prescalers first: a list samples on the event that brings its countdown to 0.
+        let count = usize::from(self.list_count);
+        let mut due = [false; MAX_DAQ_LISTS];
+        for (l, d) in self.lists.iter_mut().take(count).zip(due.iter_mut()) {
+            if l.running && l.event == event {
+                *d = l.countdown == 0;
+                l.countdown = if l.countdown == 0 {
+                    l.prescaler.saturating_sub(1)
+                } else {
+                    l.countdown - 1
+                };
+            }
+        }
         let mut pid = 0_u8;
-        for l in self.active_lists() {
+        for (l, &due) in self.active_lists().zip(due.iter()) {
             let first_pid = pid;
             pid = pid.saturating_add(l.odt_count);
-            if !l.running || l.event != event {
+            if !due {
                 continue;
             }
             for odt in 0..l.odt_count {

@@ -46,11 +46,11 @@
 //! | E2 | SET_DAQ_PTR | `E2 00 list(u16) odt entry` → `FF` | DAQ |
 //! | E1 | WRITE_DAQ | `E1 FF size 00 addr(u32)` → `FF` (size 1..=4) | DAQ |
 //! | E0 | SET_DAQ_LIST_MODE | `E0 mode list(u16) event(u16) prescaler prio` → `FF` (mode 0x10 timestamp) | DAQ |
-//! | DF | GET_DAQ_LIST_MODE | `DF 00 list(u16)` → `FF mode 00 00 event(u16) 01 prio` | — |
+//! | DF | GET_DAQ_LIST_MODE | `DF 00 list(u16)` → `FF mode 00 00 event(u16) prescaler prio` | — |
 //! | DE | START_STOP_DAQ_LIST | `DE mode list(u16)` → `FF first_pid` (0 stop, 1 start, 2 select) | DAQ |
 //! | DD | START_STOP_SYNCH | `DD mode` → `FF` (0 stop all, 1 start selected, 2 stop selected) | DAQ |
 //! | DC | GET_DAQ_CLOCK | `DC` → `FF 00 18 01 time(u32, µs)` | — |
-//! | DA | GET_DAQ_PROCESSOR_INFO | `DA` → `FF 11 max_daq(u16) 01 00 00 00` (dynamic, timestamps, absolute ODT numbers) | — |
+//! | DA | GET_DAQ_PROCESSOR_INFO | `DA` → `FF 13 max_daq(u16) 01 00 00 00` (dynamic, prescaler, timestamps, absolute ODT numbers) | — |
 //! | D9 | GET_DAQ_RESOLUTION_INFO | `D9` → `FF 01 04 01 00 34 01 00` (entries ≤ 4 bytes, 4-byte timestamp, 1 µs, 1 tick) | — |
 //! | D7 | GET_DAQ_EVENT_INFO | `D7 00 00 00` → `FF 84 04 0C cycle unit 00`, MTA → "control step" | — |
 //! | D6 | FREE_DAQ | `D6` → `FF` | DAQ |
@@ -77,7 +77,8 @@
 //!   `FE 29 expected` (the standard's negative response with the expected count).
 //! - **WRITE_DAQ** takes sizes 1..=4 (granularity 1, MAX_ODT_ENTRY_SIZE 4: pyxcp merges
 //!   adjacent variables into entries of any length up to that) and bit offset 0xFF only.
-//! - **SET_DAQ_LIST_MODE** accepts prescaler 0 or 1 and any priority (pyxcp sends 0xFF);
+//! - **SET_DAQ_LIST_MODE** accepts any prescaler (0 and 1: every event; n: every n-th event,
+//!   the first right after START) and any priority (pyxcp sends 0xFF);
 //!   direction STIM, PID_OFF and other mode bits are `ERR_OUT_OF_RANGE`.
 //! - Timestamps are selectable per list (not fixed); pyxcp then leaves the first ODT of a
 //!   timestamped list without entries (4 bytes of payload room − 4 timestamp bytes), which

@@ -14,9 +14,9 @@ use crate::wire::{byte, check_extension, dword, word, CmdResult};
 /// Name of event channel 0, uploaded after GET_DAQ_EVENT_INFO.
 pub(crate) const EVENT_NAME: &[u8] = b"control step";
 
-/// DAQ_PROPERTIES: bit 0 dynamic configuration, bit 4 timestamps supported (no prescaler,
-/// no resume, no bit-wise STIM, PID not switchable, no overload indication).
-pub(crate) const DAQ_PROPERTIES: u8 = 0x11;
+/// DAQ_PROPERTIES: bit 0 dynamic configuration, bit 1 prescaler supported, bit 4 timestamps
+/// supported (no resume, no bit-wise STIM, PID not switchable, no overload indication).
+pub(crate) const DAQ_PROPERTIES: u8 = 0x13;
 /// DAQ_KEY_BYTE: optimisation default, address extension free (always 0), identification
 /// field "absolute ODT number" (bits 6–7 = 0).
 pub(crate) const DAQ_KEY_BYTE: u8 = 0x00;
@@ -138,8 +138,9 @@ impl Slave {
     }
 
     /// SET_DAQ_LIST_MODE `E0 mode list(u16) event(u16) prescaler priority`: mode bit 4
-    /// (timestamp) only, event 0, prescaler 0 or 1 (every event), any priority (stored, not
-    /// used: lists of one event are sampled in list order).
+    /// (timestamp) only, event 0, any prescaler (0 and 1: every event; n: every n-th event,
+    /// the first one right after the start), any priority (stored, not used: lists of one
+    /// event are sampled in list order).
     pub(crate) fn set_daq_list_mode(&mut self, cto: &[u8], out: &mut Responses) -> CmdResult {
         self.configurable()?;
         let m = byte(cto, 1)?;
@@ -147,11 +148,11 @@ impl Slave {
         let event = word(cto, 4)?;
         let prescaler = byte(cto, 6)?;
         let priority = byte(cto, 7)?;
-        if m & !mode::TIMESTAMP != 0 || event >= EVENT_CHANNELS || prescaler > 1 {
+        if m & !mode::TIMESTAMP != 0 || event >= EVENT_CHANNELS {
             return Err(ErrorCode::OutOfRange.into());
         }
         self.daq
-            .set_mode(list, m & mode::TIMESTAMP != 0, event, priority)?;
+            .set_mode(list, m & mode::TIMESTAMP != 0, event, prescaler, priority)?;
         out.ok(&[]);
         Ok(())
     }
@@ -160,9 +161,9 @@ impl Slave {
     /// prescaler(1) priority`; mode bits 0 selected, 4 timestamp, 6 running.
     pub(crate) fn get_daq_list_mode(&mut self, cto: &[u8], out: &mut Responses) -> CmdResult {
         let list = word(cto, 2)?;
-        let (bits, event, priority) = self.daq.mode(list)?;
+        let (bits, event, prescaler, priority) = self.daq.mode(list)?;
         let [e0, e1] = event.to_le_bytes();
-        out.ok(&[bits, 0, 0, e0, e1, 1, priority]);
+        out.ok(&[bits, 0, 0, e0, e1, prescaler, priority]);
         Ok(())
     }
 

@@ -372,10 +372,8 @@ fn set_daq_list_mode_parameters() {
         rig.one(&[cmd::SET_DAQ_LIST_MODE, 0, 0, 0, 1, 0, 1, 0]),
         err(ErrorCode::OutOfRange)
     );
-    assert_eq!(
-        rig.one(&[cmd::SET_DAQ_LIST_MODE, 0, 0, 0, 0, 0, 2, 0]),
-        err(ErrorCode::OutOfRange)
-    );
+    // Any prescaler is taken (see `prescalers_thin_each_list_on_its_own`).
+    rig.ok(&[cmd::SET_DAQ_LIST_MODE, 0, 0, 0, 0, 0, 2, 0]);
     assert_eq!(
         rig.one(&[cmd::SET_DAQ_LIST_MODE, 0, 1, 0, 0, 0, 1, 0]),
         err(ErrorCode::OutOfRange)
@@ -420,11 +418,11 @@ fn daq_configuration_needs_daq_unlocked() {
 fn daq_queries() {
     let mut rig = Rig::new();
     rig.connect();
-    // Dynamic + timestamps; MAX_DAQ = lists allocated (0); 1 event; MIN_DAQ 0; key byte 0
-    // (absolute ODT number).
+    // Dynamic + prescaler + timestamps; MAX_DAQ = lists allocated (0); 1 event; MIN_DAQ 0;
+    // key byte 0 (absolute ODT number).
     assert_eq!(
         rig.one(&[cmd::GET_DAQ_PROCESSOR_INFO]),
-        [0xFF, 0x11, 0, 0, 1, 0, 0, 0x00]
+        [0xFF, 0x13, 0, 0, 1, 0, 0, 0x00]
     );
     // Granularity 1, max entry 4, STIM 1/0, timestamp 4 bytes not fixed in 1 µs, 1 tick.
     assert_eq!(
@@ -461,4 +459,51 @@ fn event_cycle_encoding() {
     assert_eq!(event_cycle(10_000), (100, 5));
     assert_eq!(event_cycle(1_000_000), (100, 7)); // 1 s = 100 × 10 ms
     assert_eq!(event_cycle(u32::MAX), (255, 9));
+}
+
+/// A prescaler of n samples every n-th event, the first right after the start; lists keep
+/// their own counts; GET_DAQ_LIST_MODE echoes it, GET_DAQ_PROCESSOR_INFO offers it.
+#[test]
+fn prescalers_thin_each_list_on_its_own() {
+    let mut rig = Rig::new();
+    rig.connect_unlocked();
+    configure(&mut rig);
+    assert_eq!(rig.one(&[cmd::GET_DAQ_PROCESSOR_INFO])[1] & 0x02, 0x02);
+    // List 0 every 3rd event, list 1 every 2nd.
+    rig.ok(&[cmd::SET_DAQ_LIST_MODE, 0x10, 0, 0, 0, 0, 3, 0xFF]);
+    rig.ok(&[cmd::SET_DAQ_LIST_MODE, 0x00, 1, 0, 0, 0, 2, 0]);
+    assert_eq!(
+        rig.one(&[cmd::GET_DAQ_LIST_MODE, 0, 0, 0]),
+        [0xFF, 0x10, 0, 0, 0, 0, 3, 0xFF]
+    );
+    rig.one(&[cmd::START_STOP_DAQ_LIST, 2, 0, 0]);
+    rig.one(&[cmd::START_STOP_DAQ_LIST, 2, 1, 0]);
+    rig.ok(&[cmd::START_STOP_SYNCH, 1]);
+    let pids: Vec<Vec<u8>> = (0..7)
+        .map(|k| sample(&mut rig, 0, k).iter().map(|d| d[0]).collect())
+        .collect();
+    // List 0 (PIDs 0, 1) at events 0, 3, 6; list 1 (PID 2) at events 0, 2, 4, 6.
+    assert_eq!(
+        pids,
+        [
+            vec![0, 1, 2],
+            vec![],
+            vec![2],
+            vec![0, 1],
+            vec![2],
+            vec![],
+            vec![0, 1, 2]
+        ]
+    );
+    // A restart samples at once again.
+    rig.one(&[cmd::START_STOP_DAQ_LIST, 0, 0, 0]);
+    assert_eq!(rig.one(&[cmd::START_STOP_DAQ_LIST, 1, 0, 0]), [0xFF, 0]);
+    assert_eq!(sample(&mut rig, 0, 9)[0][0], 0);
+    // Prescaler 0 means every event, like 1.
+    rig.ok(&[cmd::START_STOP_SYNCH, 0]);
+    rig.ok(&[cmd::SET_DAQ_LIST_MODE, 0x10, 0, 0, 0, 0, 0, 0]);
+    rig.one(&[cmd::START_STOP_DAQ_LIST, 1, 0, 0]);
+    for k in 0..3 {
+        assert_eq!(sample(&mut rig, 0, k).len(), 2);
+    }
 }
