@@ -34,7 +34,9 @@ mod socket;
 mod transport;
 
 pub use board::{RemoteBoard, Sample, DEFAULT_REPLY_TIMEOUT};
-pub use qemu::{find_firmware_elf, Qemu, QemuOptions, QemuOutput, FIRMWARE_BUILD_COMMAND};
+pub use qemu::{
+    find_firmware_elf, listening_ports, Qemu, QemuOptions, QemuOutput, FIRMWARE_BUILD_COMMAND,
+};
 pub use slcan::{LineCounts, SlcanTcp};
 #[cfg(feature = "socketcan")]
 pub use socket::SocketCan;

@@ -1,7 +1,7 @@
 //! Starting the QEMU build of the firmware.
 
 use std::io::{self, Read};
-use std::net::{Ipv4Addr, SocketAddr};
+use std::net::{Ipv4Addr, SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
@@ -52,6 +52,10 @@ pub struct QemuOptions {
     pub icount_sleep: bool,
     /// How long to wait for the TCP connection and the SLCAN handshake.
     pub open_timeout: Duration,
+    /// `true` adds the firmware's XCP port (USART2, `-serial` 1) on a second TCP port,
+    /// [`Qemu::xcp_port`], free for an XCP master (`mil param --port tcp:127.0.0.1:PORT`,
+    /// pyxcp through python-can's slcan). Default `false` (USART2 unconnected).
+    pub xcp_port: bool,
 }
 
 impl Default for QemuOptions {
@@ -61,6 +65,7 @@ impl Default for QemuOptions {
             icount_shift: None,
             icount_sleep: true,
             open_timeout: Duration::from_secs(30),
+            xcp_port: false,
         }
     }
 }
@@ -79,7 +84,7 @@ pub struct QemuOutput {
 /// A running QEMU `netduinoplus2` with the firmware; killed on drop.
 ///
 /// Its USART1 is `-serial tcp:127.0.0.1:0,server=on,wait=on,nodelay=on`: QEMU listens on a
-/// port the kernel picks and names it on stderr ([`listening_port`]); stdout and stderr are
+/// port the kernel picks and names it on stderr ([`listening_ports`]); stdout and stderr are
 /// captured ([`Qemu::output`]).
 ///
 /// Why QEMU picks the port: finding a free port by binding port 0 and releasing it, then
@@ -92,6 +97,7 @@ pub struct QemuOutput {
 pub struct Qemu {
     child: Child,
     port: u16,
+    xcp_port: Option<u16>,
     stdout: Arc<Mutex<Vec<u8>>>,
     stderr: Arc<Mutex<Vec<u8>>>,
     readers: Vec<JoinHandle<()>>,
@@ -129,7 +135,10 @@ impl Qemu {
         ])
         .args(["-semihosting-config", "enable=on,target=native"])
         .arg("-serial")
-        .arg("tcp:127.0.0.1:0,server=on,wait=on,nodelay=on");
+        .arg(SERIAL);
+        if options.xcp_port {
+            cmd.arg("-serial").arg(SERIAL);
+        }
         if let Some(shift) = options.icount_shift {
             let sleep = if options.icount_sleep {
                 ""
@@ -165,16 +174,28 @@ impl Qemu {
         let mut qemu = Qemu {
             child,
             port: 0,
+            xcp_port: None,
             stdout,
             stderr,
             readers,
         };
         let deadline = Instant::now() + options.open_timeout;
-        let link = qemu.wait_for_port(deadline).and_then(|port| {
+        let link = qemu.wait_for_port(0, deadline).and_then(|port| {
             qemu.port = port;
             let addr = SocketAddr::from((Ipv4Addr::LOCALHOST, port));
             let mut link =
                 SlcanTcp::connect(addr, deadline.saturating_duration_since(Instant::now()))?;
+            if options.xcp_port {
+                // QEMU waits for a first connection to each port before it boots; this one
+                // is closed again at once and QEMU listens for the XCP master's.
+                let xcp = qemu.wait_for_port(1, deadline)?;
+                qemu.xcp_port = Some(xcp);
+                let addr = SocketAddr::from((Ipv4Addr::LOCALHOST, xcp));
+                drop(TcpStream::connect_timeout(
+                    &addr,
+                    deadline.saturating_duration_since(Instant::now()),
+                )?);
+            }
             link.open(deadline.saturating_duration_since(Instant::now()))?;
             Ok(link)
         });
@@ -192,10 +213,10 @@ impl Qemu {
         }
     }
 
-    /// Waits until QEMU names its listening port on stderr.
-    fn wait_for_port(&mut self, deadline: Instant) -> io::Result<u16> {
+    /// Waits until QEMU names its `index`-th listening port on stderr.
+    fn wait_for_port(&mut self, index: usize, deadline: Instant) -> io::Result<u16> {
         loop {
-            if let Some(port) = listening_port(&self.output().stderr) {
+            if let Some(&port) = listening_ports(&self.output().stderr).get(index) {
                 return Ok(port);
             }
             if let Some(status) = self.child.try_wait()? {
@@ -216,6 +237,12 @@ impl Qemu {
     /// The TCP port of the firmware's USART1.
     pub fn port(&self) -> u16 {
         self.port
+    }
+
+    /// The TCP port of the firmware's XCP port (USART2), when [`QemuOptions::xcp_port`]
+    /// asked for it.
+    pub fn xcp_port(&self) -> Option<u16> {
+        self.xcp_port
     }
 
     /// What QEMU printed so far (status not set).
@@ -261,13 +288,21 @@ impl Qemu {
     }
 }
 
-/// The port in QEMU's `QEMU waiting for connection on: disconnected:tcp:127.0.0.1:PORT,...`
-/// line, if `stderr` holds it.
-pub fn listening_port(stderr: &str) -> Option<u16> {
+/// Each serial port's chardev: QEMU picks a free port and names it on stderr.
+const SERIAL: &str = "tcp:127.0.0.1:0,server=on,wait=on,nodelay=on";
+
+/// The ports of every complete `QEMU waiting for connection on: ...` line, in order (one
+/// per `-serial` port, each printed once QEMU has a connection on the one before).
+pub fn listening_ports(stderr: &str) -> Vec<u16> {
     const MARK: &str = "waiting for connection on: disconnected:tcp:127.0.0.1:";
-    let rest = &stderr[stderr.find(MARK)? + MARK.len()..];
-    let digits = rest.find(|c: char| !c.is_ascii_digit())?;
-    rest[..digits].parse().ok().filter(|&p| p != 0)
+    stderr
+        .match_indices(MARK)
+        .filter_map(|(at, _)| {
+            let rest = &stderr[at + MARK.len()..];
+            let digits = rest.find(|c: char| !c.is_ascii_digit())?;
+            rest[..digits].parse().ok().filter(|&p| p != 0)
+        })
+        .collect()
 }
 
 impl Drop for Qemu {
@@ -281,7 +316,11 @@ impl Drop for Qemu {
 
 #[cfg(test)]
 mod tests {
-    use super::listening_port;
+    use super::listening_ports;
+
+    fn listening_port(stderr: &str) -> Option<u16> {
+        listening_ports(stderr).first().copied()
+    }
 
     #[test]
     fn the_port_comes_from_qemus_waiting_line() {
@@ -294,6 +333,9 @@ mod tests {
             None
         );
         assert_eq!(listening_port("qemu-system-arm: some error\n"), None);
+        // Two ports, one line each.
+        let two = format!("{line}{}", line.replace("34363", "40001"));
+        assert_eq!(listening_ports(&two), vec![34363, 40001]);
         assert_eq!(
             listening_port("waiting for connection on: disconnected:tcp:127.0.0.1:0,server=on"),
             None

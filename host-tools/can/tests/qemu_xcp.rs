@@ -366,3 +366,34 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
     );
     eprintln!("{}", out.stdout.trim());
 }
+
+/// The QEMU build's second SLCAN port (USART2) carries XCP for a master of its own, while
+/// USART1 stays the rig's: CONNECT there is answered there, and nothing XCP appears on
+/// USART1.
+#[test]
+fn the_xcp_port_answers_on_its_own_link() {
+    let options = QemuOptions {
+        xcp_port: true,
+        ..QemuOptions::default()
+    };
+    let (qemu, mut link) = Qemu::spawn(&elf(), &options).expect("QEMU");
+    let port = qemu.xcp_port().expect("the XCP port");
+    let addr = std::net::SocketAddr::from((std::net::Ipv4Addr::LOCALHOST, port));
+    let mut aux = SlcanTcp::connect(addr, TIMEOUT).expect("connect to the XCP port");
+    aux.open(TIMEOUT).expect("SLCAN on the XCP port");
+    aux.send(&RawFrame::from_parts(XCP_COMMAND_ID, &[0xFF, 0x00]).unwrap())
+        .unwrap();
+    let answer = aux.recv(TIMEOUT).unwrap().expect("CONNECT answered");
+    assert_eq!(answer.id, XCP_RESPONSE_ID);
+    assert_eq!(answer.payload()[0], 0xFF);
+    assert!(link.recv(Duration::from_millis(300)).unwrap().is_none());
+    aux.send(&RawFrame::from_parts(XCP_COMMAND_ID, &[0xFE]).unwrap())
+        .unwrap();
+    assert_eq!(
+        aux.recv(TIMEOUT).unwrap().expect("DISCONNECT").payload(),
+        [0xFF]
+    );
+    link.close().unwrap();
+    let out = qemu.finish(Duration::from_secs(20)).unwrap();
+    assert!(out.status.is_some_and(|s| s.success()), "{}", out.stderr);
+}

@@ -9,16 +9,24 @@
 //!
 //! `mil diagnose` ([`mod@diagnose`]) runs the discrepancy workflow of `mil-diagnose` on a model
 //! file and a measured record and writes the updated model, the report and the plots.
+//!
+//! `mil param` ([`param`]), `mil daq record` ([`daq_record`]) and `mil filter upload`
+//! ([`filter_upload`]) calibrate and measure the board over XCP on CAN (`mil-xcp-master`),
+//! by the names of its A2L file; [`xcp`] holds what they share (port, CAN IDs, secret).
 
 pub mod analyze;
 pub mod config;
+pub mod daq_record;
 pub mod design_filter;
 pub mod diagnose;
+pub mod filter_upload;
 pub mod identify;
+pub mod param;
 pub mod plot;
 pub mod run;
 pub mod signals;
 pub mod sim;
+pub mod xcp;
 
 pub use config::{Config, ModelKind};
 pub use run::{run, RunOutput, Summary};

@@ -4,6 +4,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use mil::config::{Config, DEFAULT_TYRE_CONFIG};
+use mil::xcp::BoardArgs;
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
@@ -160,6 +161,90 @@ enum Command {
     Check {
         /// Run configuration (TOML).
         config: PathBuf,
+    },
+    /// The board's calibration parameters over XCP on CAN, by their A2L names: list them
+    /// (A2L only), read them, write them.
+    Param {
+        #[command(subcommand)]
+        command: ParamCommand,
+    },
+    /// Measurement over XCP on CAN: record the board's signals with its timestamps.
+    Daq {
+        #[command(subcommand)]
+        command: DaqCommand,
+    },
+    /// The board's command filter over XCP on CAN.
+    Filter {
+        #[command(subcommand)]
+        command: FilterCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum ParamCommand {
+    /// List the calibration parameters and the measurements of an A2L file: name, unit,
+    /// limits, address, description (no board needed).
+    List {
+        /// The board's A2L file (`mil a2l` writes it).
+        #[arg(long)]
+        a2l: PathBuf,
+    },
+    /// Read parameters (or measurements) from the board.
+    Get {
+        /// A2L names.
+        #[arg(required = true)]
+        names: Vec<String>,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Write parameters: each value is checked against the A2L limits before anything is
+    /// sent; contiguous parameters go to the board as one change it validates as a whole,
+    /// the others one after another; prints old → new as read back.
+    Set {
+        /// NAME=VALUE pairs (SI units as in the A2L).
+        #[arg(required = true)]
+        assignments: Vec<String>,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+}
+
+#[derive(Subcommand)]
+enum DaqCommand {
+    /// Record signals by DAQ on the board's control step into a CSV file: `time` (s, from
+    /// the board's timestamps, 0 at the first sample), then the signals in the A2L's SI
+    /// units. Without --duration or --samples: 10 s.
+    Record {
+        /// Measurement (or parameter) names, comma-separated.
+        #[arg(long, value_delimiter = ',', required = true)]
+        signals: Vec<String>,
+        /// CSV file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Board time to record (s).
+        #[arg(long, conflicts_with = "samples")]
+        duration: Option<f64>,
+        /// Samples to record.
+        #[arg(long)]
+        samples: Option<u64>,
+        /// Keep every N-th control step (on the board where it can, else on the host).
+        #[arg(long, default_value_t = 1)]
+        prescaler: u16,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+}
+
+#[derive(Subcommand)]
+enum FilterCommand {
+    /// Write a filter file (`mil design-filter`) to the board: filter_sections and every
+    /// section's delta-form coefficients as ONE block download, so the board validates the
+    /// whole filter at once; prints the coefficients written.
+    Upload {
+        /// Filter file (JSON, `mil-command-filter`).
+        filter: PathBuf,
+        #[command(flatten)]
+        board: BoardArgs,
     },
 }
 
@@ -411,5 +496,139 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}: valid", config.display());
             Ok(())
         }
+        Command::Param { command } => run_param(command),
+        Command::Daq { command } => run_daq(command),
+        Command::Filter { command } => run_filter(command),
     }
+}
+
+fn run_param(command: ParamCommand) -> Result<()> {
+    match command {
+        ParamCommand::List { a2l } => {
+            let a2l = mil::xcp::load_a2l(&a2l)?;
+            print!("{}", mil::param::list_table(&a2l));
+        }
+        ParamCommand::Get { names, board } => {
+            let a2l = mil::xcp::load_a2l(&board.a2l)?;
+            mil::param::resolve(&a2l, &names)?;
+            let table = mil::xcp::session(&board, &a2l, |m| mil::param::get(m, &a2l, &names))?;
+            print!("{table}");
+        }
+        ParamCommand::Set { assignments, board } => {
+            let a2l = mil::xcp::load_a2l(&board.a2l)?;
+            let assignments = mil::param::parse_assignments(&assignments)?;
+            // Everything the host can check, before the board is contacted.
+            mil::param::check_assignments(&a2l, &assignments)?;
+            let secret = mil::xcp::secret(&board)?;
+            let changes = mil::xcp::session(&board, &a2l, |m| {
+                mil::param::set(m, &a2l, &assignments, &secret)
+            })?;
+            print!("{}", mil::param::changes_table(&a2l, &changes));
+        }
+    }
+    Ok(())
+}
+
+fn run_daq(command: DaqCommand) -> Result<()> {
+    let DaqCommand::Record {
+        signals,
+        out,
+        duration,
+        samples,
+        prescaler,
+        board,
+    } = command;
+    let a2l = mil::xcp::load_a2l(&board.a2l)?;
+    let items = mil::daq_record::resolve_signals(&a2l, &signals)?;
+    let length = match (duration, samples) {
+        (_, Some(n)) => mil::daq_record::Length::Samples(n),
+        (Some(d), None) => mil::daq_record::Length::Duration(d),
+        (None, None) => mil::daq_record::Length::Duration(10.0),
+    };
+    let secret = mil::xcp::secret(&board)?;
+    let bar = ProgressBar::new(1000).with_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message("recording");
+    // Ctrl-C ends the recording early and cleanly: the list is stopped and freed on the
+    // board (else it would keep sampling, and loading the bus, until the next CONNECT).
+    let interrupt = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    {
+        let interrupt = std::sync::Arc::clone(&interrupt);
+        ctrlc::set_handler(move || interrupt.store(true, std::sync::atomic::Ordering::Relaxed))
+            .map_err(|e| anyhow::anyhow!("cannot install the Ctrl-C handler: {e}"))?;
+    }
+    let request = mil::daq_record::Request {
+        prescaler,
+        length,
+        out: out.clone(),
+    };
+    let recorded = mil::xcp::session(&board, &a2l, |m| {
+        mil::daq_record::record(
+            m,
+            &items,
+            &secret,
+            &request,
+            |f| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64),
+            || interrupt.load(std::sync::atomic::Ordering::Relaxed),
+        )
+    });
+    bar.finish_and_clear();
+    let recorded = recorded?;
+    let rate = recorded
+        .event_cycle_s
+        .map(|c| format!(" at {} Hz", 1.0 / c))
+        .unwrap_or_default();
+    let steps = if prescaler == 1 {
+        format!("every control step{rate}")
+    } else {
+        format!(
+            "1 in {prescaler} control steps{rate}{}",
+            if recorded.host_prescaler == 1 {
+                String::new()
+            } else {
+                format!(
+                    ": 1 in {} on the board, 1 in {} of those kept by the host",
+                    recorded.board_prescaler, recorded.host_prescaler
+                )
+            }
+        )
+    };
+    println!(
+        "{}: {} samples over {:.3} s ({steps}; {} CAN frames per sample){}",
+        out.display(),
+        recorded.samples,
+        recorded.span_s,
+        recorded.dtos_per_sample,
+        if recorded.interrupted {
+            ", stopped by Ctrl-C"
+        } else {
+            ""
+        }
+    );
+    let units: Vec<String> = items
+        .iter()
+        .map(|i| format!("{} [{}]", i.name, i.unit_or_dash()))
+        .collect();
+    println!("columns: time [s], {}", units.join(", "));
+    if recorded.stats.incomplete > 0 {
+        println!(
+            "incomplete cycles dropped (lost DTOs): {}",
+            recorded.stats.incomplete
+        );
+    }
+    Ok(())
+}
+
+fn run_filter(command: FilterCommand) -> Result<()> {
+    let FilterCommand::Upload { filter, board } = command;
+    let a2l = mil::xcp::load_a2l(&board.a2l)?;
+    let plan = mil::filter_upload::plan(&a2l, &filter)?;
+    let secret = mil::xcp::secret(&board)?;
+    let changes = mil::xcp::session(&board, &a2l, |m| {
+        mil::filter_upload::upload(m, &plan, &secret)
+    })?;
+    print!("{}", mil::filter_upload::table(&plan, &changes));
+    Ok(())
 }

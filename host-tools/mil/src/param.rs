@@ -1,0 +1,206 @@
+//! `mil param list | get | set`: the board's calibration parameters by their A2L names.
+//!
+//! - `list` needs the A2L file only: every parameter with unit, limits, address and
+//!   description, then the measurements (`mil daq record --signals`).
+//! - `get NAME...` reads the values (contiguous parameters in one upload).
+//! - `set NAME=VALUE...` checks every value on the host first (finite, within the A2L
+//!   limits) and sends nothing when one fails; then CAL/PAG is unlocked by seed & key, the
+//!   values of contiguous parameters go to the board as ONE change (validated by the board as
+//!   a whole), others one after another, and each parameter is printed `old → new` as read
+//!   back. A value the board still refuses is reported with its reason; that change is not
+//!   applied.
+
+use std::fmt::Write as _;
+
+use anyhow::{anyhow, bail, Result};
+use mil_can::Transport;
+use mil_xcp_master::{resource, A2l, Change, Item, Master};
+
+use crate::xcp::{format_limit, format_value};
+
+/// The table `mil param list` prints.
+pub fn list_table(a2l: &A2l) -> String {
+    let mut t = String::new();
+    let w = |items: &[Item], t: &mut String| {
+        let name_w = items.iter().map(|i| i.name.len()).max().unwrap_or(4).max(4);
+        let _ = writeln!(
+            t,
+            "{:<name_w$}  {:<6} {:>13} {:>13}  {:<10}  description",
+            "name", "unit", "min", "max", "address"
+        );
+        for i in items {
+            let _ = writeln!(
+                t,
+                "{:<name_w$}  {:<6} {:>13} {:>13}  0x{:08X}  {}",
+                i.name,
+                i.unit_or_dash(),
+                format_limit(i.min),
+                format_limit(i.max),
+                i.address,
+                i.description
+            );
+        }
+    };
+    let _ = writeln!(
+        t,
+        "{} calibration parameters ({} {}):",
+        a2l.characteristics.len(),
+        a2l.project,
+        a2l.module
+    );
+    w(&a2l.characteristics, &mut t);
+    let _ = writeln!(
+        t,
+        "\n{} measurements (mil daq record --signals):",
+        a2l.measurements.len()
+    );
+    w(&a2l.measurements, &mut t);
+    for s in &a2l.skipped {
+        let _ = writeln!(t, "skipped {}: {}", s.name, s.why);
+    }
+    t
+}
+
+/// `NAME=VALUE` pairs.
+///
+/// # Errors
+/// A pair without `=` or with a value that is not a number.
+pub fn parse_assignments(pairs: &[String]) -> Result<Vec<(String, f64)>> {
+    pairs
+        .iter()
+        .map(|p| {
+            let (name, value) = p
+                .split_once('=')
+                .ok_or_else(|| anyhow!("`{p}`: expected NAME=VALUE"))?;
+            let v: f64 = value
+                .trim()
+                .parse()
+                .map_err(|_| anyhow!("`{p}`: `{value}` is not a number"))?;
+            Ok((name.trim().to_string(), v))
+        })
+        .collect()
+}
+
+/// The parameters `names` (characteristics first, then measurements, as `get` reads both).
+///
+/// # Errors
+/// A name the A2L does not have.
+pub fn resolve<'a>(a2l: &'a A2l, names: &[String]) -> Result<Vec<&'a Item>> {
+    names
+        .iter()
+        .map(|n| {
+            a2l.characteristic(n)
+                .or_else(|e| a2l.measurement(n).map_err(|_| e))
+                .map_err(Into::into)
+        })
+        .collect()
+}
+
+/// `mil param get`: the values of `names`, one `name = value unit` line each.
+///
+/// # Errors
+/// Unknown names, or the board's errors.
+pub fn get<T: Transport>(master: &mut Master<T>, a2l: &A2l, names: &[String]) -> Result<String> {
+    let items = resolve(a2l, names)?;
+    let values = master.read_items(&items)?;
+    let width = items.iter().map(|i| i.name.len()).max().unwrap_or(0);
+    let mut t = String::new();
+    for (i, v) in items.iter().zip(values) {
+        let _ = writeln!(
+            t,
+            "{:<width$} = {} {}",
+            i.name,
+            format_value(i, v),
+            i.unit_or_dash()
+        );
+    }
+    Ok(t)
+}
+
+/// Host-side checks of `set`: names known, values finite and within the A2L limits, no
+/// parameter twice. Nothing is sent.
+///
+/// # Errors
+/// The first problem.
+pub fn check_assignments<'a>(
+    a2l: &'a A2l,
+    assignments: &[(String, f64)],
+) -> Result<(Vec<&'a Item>, Vec<f64>)> {
+    if assignments.is_empty() {
+        bail!("nothing to set: give NAME=VALUE ...");
+    }
+    let mut items = Vec::new();
+    let mut values = Vec::new();
+    for (name, v) in assignments {
+        let item = a2l.characteristic(name)?;
+        if items.iter().any(|i: &&Item| i.name == item.name) {
+            bail!("{name} is given twice");
+        }
+        item.encode_checked(*v)?;
+        items.push(item);
+        values.push(*v);
+    }
+    Ok((items, values))
+}
+
+/// `mil param set`: unlocks CAL/PAG with `secret` and writes (see the module
+/// documentation); the changes as read back.
+///
+/// # Errors
+/// Host-side check failures (nothing sent), a wrong secret, the board's refusal.
+pub fn set<T: Transport>(
+    master: &mut Master<T>,
+    a2l: &A2l,
+    assignments: &[(String, f64)],
+    secret: &[u8],
+) -> Result<Vec<Change>> {
+    let (items, values) = check_assignments(a2l, assignments)?;
+    master.unlock(resource::CAL_PAG, secret)?;
+    Ok(master.write_items(&items, &values)?)
+}
+
+/// The `old → new` lines of `set`.
+pub fn changes_table(a2l: &A2l, changes: &[Change]) -> String {
+    let width = changes.iter().map(|c| c.name.len()).max().unwrap_or(0);
+    let mut t = String::new();
+    for c in changes {
+        let fmt = |v: f64| match a2l.characteristic(&c.name) {
+            Ok(item) => format_value(item, v),
+            Err(_) => format!("{v}"),
+        };
+        let _ = writeln!(
+            t,
+            "{:<width$}: {} → {} {}",
+            c.name,
+            fmt(c.old),
+            fmt(c.new),
+            c.unit
+        );
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn assignments_parse() {
+        let a = parse_assignments(&["tyre_stiffness=2.5e5".into(), " demand_max = 3000 ".into()])
+            .unwrap();
+        assert_eq!(
+            a,
+            vec![
+                ("tyre_stiffness".into(), 2.5e5),
+                ("demand_max".into(), 3000.0)
+            ]
+        );
+        assert_eq!(
+            parse_assignments(&["tyre_stiffness".into()])
+                .unwrap_err()
+                .to_string(),
+            "`tyre_stiffness`: expected NAME=VALUE"
+        );
+        assert!(parse_assignments(&["x=fast".into()]).is_err());
+    }
+}
