@@ -197,7 +197,7 @@ const HEAD: [CalItem; 11] = [
     },
     real(
         "tyre_velocity_cutoff",
-        "deflection-velocity low-pass cut-off (0: none), below Nyquist",
+        "deflection-velocity low-pass cut-off (0: none; exact ZOH first order, stable at any value)",
         "Hz",
         4,
         velocity::VELOCITY_CUTOFF,

@@ -13,7 +13,7 @@
 //! | 1 | tyre radial damping `c_t` | N s/m | 0 ..= 1e6 |
 //! | 2 | static wheel load | N | 0 ..= 1e6 |
 //! | 3 | lift-off (1) or linear tyre (0) | – | exactly 0.0 or 1.0 |
-//! | 4 | deflection-velocity low-pass cut-off (0: none) | Hz | 0 ..= 20 000, below Nyquist |
+//! | 4 | deflection-velocity low-pass cut-off (0: none) | Hz | 0 ..= 20 000 (exact ZOH first order: stable at any value) |
 //! | 5 | demand minimum | N | ±1e7, below the maximum |
 //! | 6 | demand maximum | N | ±1e7, above the minimum |
 //! | 7 | demand rate limit | N/s | 1e-6 ..= 1e12 |

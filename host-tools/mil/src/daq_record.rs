@@ -1,8 +1,11 @@
 //! `mil daq record`: signals of the board recorded by XCP DAQ on its control-step event, with
 //! the board's own timestamps, into a CSV file (`time` in s from the first sample, then the
-//! signals in the A2L's SI units).
+//! signals in the A2L's SI units) or, for a file named `*.mf4` or `*.mdf`, into ASAM MDF 4
+//! (one channel group: the master channel `time` in s, then one f64 channel per signal,
+//! named as the signal, with the A2L's unit).
 
 use std::io::Write as _;
+use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
@@ -27,7 +30,7 @@ pub struct Request {
     pub prescaler: u16,
     /// When to end.
     pub length: Length,
-    /// The CSV file.
+    /// The file: MDF 4 for `*.mf4` or `*.mdf` ([`is_mdf`]), else CSV.
     pub out: std::path::PathBuf,
 }
 
@@ -73,8 +76,123 @@ pub fn resolve_signals<'a>(a2l: &'a A2l, names: &[String]) -> Result<Vec<&'a Ite
     Ok(out)
 }
 
+/// Whether `path` is written as MDF 4: its extension is `mf4` or `mdf` (any case).
+#[must_use]
+pub fn is_mdf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("mf4") || e.eq_ignore_ascii_case("mdf"))
+}
+
+/// Where the samples go.
+enum Sink {
+    Csv(std::io::BufWriter<std::fs::File>),
+    Mdf {
+        writer: Box<mdf4_rs::MdfWriter<mdf4_rs::writer::FileWriter>>,
+        group: String,
+        record: Vec<mdf4_rs::DecodedValue>,
+    },
+}
+
+impl Sink {
+    /// Creates `out` and writes the header: the CSV's first line, or the MDF 4 blocks down to
+    /// the channels, with the data block opened.
+    fn create(out: &Path, signals: &[&Item]) -> Result<Self> {
+        if !is_mdf(out) {
+            let file = std::fs::File::create(out)
+                .with_context(|| format!("cannot create {}", out.display()))?;
+            let mut w = std::io::BufWriter::new(file);
+            let mut header = vec!["time".to_string()];
+            header.extend(signals.iter().map(|s| s.name.clone()));
+            writeln!(w, "{}", header.join(","))?;
+            return Ok(Self::Csv(w));
+        }
+        let path = out
+            .to_str()
+            .with_context(|| format!("{}: an MDF file name must be UTF-8", out.display()))?;
+        let context = || format!("cannot create {}", out.display());
+        let mut writer = Box::new(mdf4_rs::MdfWriter::new(path).with_context(context)?);
+        let group = (|| -> mdf4_rs::Result<String> {
+            use mdf4_rs::DataType;
+            writer.init_mdf_file()?;
+            let group = writer.add_channel_group(None, |_| {})?;
+            writer.set_channel_group_name(&group, "daq")?;
+            let channel = |name: &str| {
+                let name = name.to_string();
+                move |ch: &mut mdf4_rs::blocks::ChannelBlock| {
+                    ch.data_type = DataType::FloatLE;
+                    ch.bit_count = 64;
+                    ch.name = Some(name);
+                }
+            };
+            let time = writer.add_channel(&group, None, channel("time"))?;
+            writer.set_time_channel(&time)?;
+            writer.set_channel_unit(&time, "s")?;
+            let mut prev = time;
+            for s in signals {
+                let cn = writer.add_channel(&group, Some(&prev), channel(&s.name))?;
+                // The A2L's `-` (or nothing) is no unit.
+                if s.unit != "-" {
+                    writer.set_channel_unit(&cn, &s.unit)?;
+                }
+                if !s.description.is_empty() {
+                    writer.set_channel_comment(&cn, &s.description)?;
+                }
+                prev = cn;
+            }
+            writer.start_data_block_for_cg(&group, 0)?;
+            Ok(group)
+        })()
+        .with_context(context)?;
+        Ok(Self::Mdf {
+            writer,
+            group,
+            record: Vec::with_capacity(signals.len() + 1),
+        })
+    }
+
+    /// Writes one sample: the time (s) and the signals' physical values.
+    fn write(&mut self, signals: &[&Item], time_s: f64, values: &[f64]) -> Result<()> {
+        match self {
+            Self::Csv(w) => {
+                write!(w, "{time_s:.6}")?;
+                for (item, v) in signals.iter().zip(values) {
+                    write!(w, ",{}", format_value(item, *v))?;
+                }
+                writeln!(w)?;
+            }
+            Self::Mdf {
+                writer,
+                group,
+                record,
+            } => {
+                use mdf4_rs::DecodedValue::Float;
+                record.clear();
+                record.push(Float(time_s));
+                record.extend(values.iter().map(|v| Float(*v)));
+                writer.write_record(group, record)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Flushes the file; for MDF 4, closes the data block so that the file is complete.
+    fn finish(self) -> Result<()> {
+        match self {
+            Self::Csv(mut w) => w.flush()?,
+            Self::Mdf {
+                mut writer, group, ..
+            } => {
+                writer.finish_data_block(&group)?;
+                writer.finalize()?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Unlocks DAQ with `secret`, records `signals` as `request` says (or until `stop()` says
-/// so), writes the CSV and stops and frees the DAQ list. `progress(done)` is called with
+/// so), writes the CSV (or MDF 4, [`is_mdf`]) and stops and frees the DAQ list. `progress(done)` is called with
 /// the fraction done.
 ///
 /// # Errors
@@ -99,12 +217,7 @@ pub fn record<T: Transport>(
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    let file =
-        std::fs::File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut w = std::io::BufWriter::new(file);
-    let mut header = vec!["time".to_string()];
-    header.extend(signals.iter().map(|s| s.name.clone()));
-    writeln!(w, "{}", header.join(","))?;
+    let mut sink = Sink::create(out, signals)?;
 
     master.unlock(resource::DAQ, secret)?;
     let timeout = master.timeout().max(Duration::from_millis(500));
@@ -131,11 +244,7 @@ pub fn record<T: Transport>(
                     break;
                 }
             }
-            write!(w, "{:.6}", s.time_s)?;
-            for (item, v) in signals.iter().zip(&s.values) {
-                write!(w, ",{}", format_value(item, *v))?;
-            }
-            writeln!(w)?;
+            sink.write(signals, s.time_s, &s.values)?;
             samples += 1;
             span_s = s.time_s;
             match length {
@@ -150,11 +259,14 @@ pub fn record<T: Transport>(
         }
         Ok(())
     })();
-    // Stop and free the list whatever happened.
+    // Stop and free the list whatever happened; complete the file with what was recorded.
     let stopped = session.stop();
+    let finished = sink
+        .finish()
+        .with_context(|| format!("cannot write {}", out.display()));
     result?;
     let stats = stopped?;
-    w.flush()?;
+    finished?;
     Ok(Recorded {
         samples,
         span_s,

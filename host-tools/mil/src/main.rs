@@ -211,14 +211,14 @@ enum ParamCommand {
 
 #[derive(Subcommand)]
 enum DaqCommand {
-    /// Record signals by DAQ on the board's control step into a CSV file: `time` (s, from
+    /// Record signals by DAQ on the board's control step into a CSV or MDF4 file: `time` (s, from
     /// the board's timestamps, 0 at the first sample), then the signals in the A2L's SI
     /// units. Without --duration or --samples: 10 s.
     Record {
         /// Measurement (or parameter) names, comma-separated.
         #[arg(long, value_delimiter = ',', required = true)]
         signals: Vec<String>,
-        /// CSV file to write.
+        /// File to write: ASAM MDF 4 for `*.mf4` or `*.mdf`, else CSV.
         #[arg(long)]
         out: PathBuf,
         /// Board time to record (s).
