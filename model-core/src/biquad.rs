@@ -33,6 +33,13 @@
 use crate::params::{Field, ParamError};
 use crate::MAX_SECTIONS;
 
+/// Stability margin a command filter section must keep: every pole within `1 − POLE_MARGIN`
+/// of the origin, i.e. a time constant of at most 100 000 samples (50 s at 2 kHz). Far
+/// beyond any useful command filter (a 1 Hz mode with ζ = 0.05 at 5 kHz has a margin of
+/// 6.3e-5), and far above the pole shift the `f32` rounding of the delta coefficients can
+/// cause, so an accepted filter stays stable as stored.
+pub const POLE_MARGIN: f32 = 1.0e-5;
+
 /// Coefficients of one second-order section in delta-operator form (see the module docs).
 ///
 /// Dimensionless; the filter's input and output share a unit.
@@ -109,6 +116,27 @@ impl BiquadCoefficients {
             && 4.0 - 2.0 * a1 + a2 > 0.0 // 1 - a1 + a2 > 0
             && a1 > a2 // a2 < 1
             && a1 - a2 < 2.0 // a2 > -1
+    }
+
+    /// The section's distance from instability: `1 − max |pole|` (1 for a section without
+    /// poles, negative when unstable), computed in `f64` from the delta coefficients, where
+    /// `α1 = (1 − p1) + (1 − p2)` and `α2 = (1 − p1)(1 − p2)` keep a slow pole's distance
+    /// from `z = 1` without cancellation. NaN when a coefficient is not finite.
+    pub fn pole_margin(&self) -> f64 {
+        let a1 = f64::from(self.alpha1);
+        let a2 = f64::from(self.alpha2);
+        let disc = a1 * a1 - 4.0 * a2;
+        if disc < 0.0 {
+            // Complex pair: |p|² = p1 p2 = 1 − α1 + α2.
+            let r2 = 1.0 - a1 + a2;
+            1.0 - libm::sqrt(r2.max(0.0))
+        } else {
+            // Real poles p = 1 − d, d the roots of d² − α1 d + α2 = 0 (stable form).
+            let q = 0.5 * (a1 + libm::copysign(libm::sqrt(disc), a1));
+            let (d1, d2) = if q == 0.0 { (0.0, 0.0) } else { (q, a2 / q) };
+            let radius = |d: f64| (1.0 - d).abs();
+            1.0 - radius(d1).max(radius(d2))
+        }
     }
 
     /// Gain at DC (`z = 1`): `β2 / α2`. Infinite for a section with a pole at `z = 1`.
@@ -204,8 +232,8 @@ impl CascadeCoefficients {
         self.section.get(..n).unwrap_or(&[])
     }
 
-    /// Validates the cascade: section count in range, every applied section finite and stable,
-    /// and a finite DC gain.
+    /// Validates the cascade: section count in range, every applied section finite and stable
+    /// with margin (every pole within `1 − POLE_MARGIN` of the origin), and a finite DC gain.
     pub fn validate(&self) -> Result<(), ParamError> {
         if self.sections as usize > MAX_SECTIONS {
             return Err(ParamError::OutOfRange(Field::CommandFilter));
@@ -217,7 +245,7 @@ impl CascadeCoefficients {
             {
                 return Err(ParamError::NotFinite(Field::CommandFilter));
             }
-            if !s.is_stable() {
+            if !s.is_stable() || s.pole_margin() < f64::from(POLE_MARGIN) {
                 return Err(ParamError::Unstable(Field::CommandFilter));
             }
         }

@@ -37,7 +37,9 @@ pub mod tyre;
 pub mod velocity;
 
 pub use aero::{AeroModel, AeroParams, AeroPrepared, RideHeightMap};
-pub use biquad::{BiquadCoefficients, BiquadState, Cascade, CascadeCoefficients, CascadeState};
+pub use biquad::{
+    BiquadCoefficients, BiquadState, Cascade, CascadeCoefficients, CascadeState, POLE_MARGIN,
+};
 pub use controller::{
     fault, Controller, ControllerParams, Mode, Model, ModelInput, PreparedParams, Status,
 };

@@ -176,3 +176,61 @@ proptest! {
         }
     }
 }
+
+/// A cascade must keep every pole within `1 − POLE_MARGIN` of the origin: `pole_margin` is
+/// exact for complex and for real poles near `z = 1` and near `z = −1`, and `validate`
+/// refuses a stable section too close to the unit circle.
+#[test]
+fn stability_needs_a_margin() {
+    use model_core::POLE_MARGIN;
+    let margin = f64::from(POLE_MARGIN);
+    // Complex pairs: the margin is 1 − r.
+    for r in [0.5, 0.99, 0.9999, 1.0 - 4.0 * margin] {
+        let c = section_from_polar((r, 0.01), (0.0, 0.0), 1.0);
+        assert!(
+            (c.pole_margin() - (1.0 - r)).abs() < 1e-3 * (1.0 - r) + 1e-9,
+            "r {r}: {}",
+            c.pole_margin()
+        );
+        assert!(CascadeCoefficients::from_sections(&[c])
+            .unwrap()
+            .validate()
+            .is_ok());
+    }
+    // Real poles from the delta coefficients: d = 1 − p for p = 0.3 and p = 1 − m/4 (slow),
+    // and p = −(1 − m/4) (near z = −1).
+    let real = |p1: f64, p2: f64| BiquadCoefficients {
+        beta0: 1.0,
+        beta1: 2.0,
+        beta2: 1.0,
+        alpha1: ((1.0 - p1) + (1.0 - p2)) as f32,
+        alpha2: ((1.0 - p1) * (1.0 - p2)) as f32,
+    };
+    let slow = 1.0 - margin / 4.0;
+    for (p1, p2, ok) in [
+        (0.3, -0.2, true),
+        (0.3, 1.0 - 2.0 * margin, true),
+        (0.3, slow, false),
+        (-slow, 0.1, false),
+    ] {
+        let c = real(p1, p2);
+        assert!(c.is_stable(), "{p1} {p2}");
+        let expected = 1.0 - f64::max(p1.abs(), p2.abs());
+        assert!(
+            (c.pole_margin() - expected).abs() < 0.05 * expected,
+            "{p1} {p2}: {} vs {expected}",
+            c.pole_margin()
+        );
+        let v = CascadeCoefficients::from_sections(&[c]).unwrap().validate();
+        assert_eq!(v.is_ok(), ok, "{p1} {p2}: {v:?}");
+    }
+    // A complex pair inside the circle but within the margin is refused.
+    let tight = section_from_polar((1.0 - margin / 4.0, 0.01), (0.0, 0.0), 1.0);
+    assert!(tight.is_stable());
+    assert!(CascadeCoefficients::from_sections(&[tight])
+        .unwrap()
+        .validate()
+        .is_err());
+    // No poles at all (identity): margin 1.
+    assert_eq!(BiquadCoefficients::IDENTITY.pole_margin(), 1.0);
+}
