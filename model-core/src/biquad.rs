@@ -34,11 +34,11 @@ use crate::params::{Field, ParamError};
 use crate::MAX_SECTIONS;
 
 /// Stability margin a command filter section must keep: every pole within `1 − POLE_MARGIN`
-/// of the origin, i.e. a time constant of at most 100 000 samples (50 s at 2 kHz). Far
-/// beyond any useful command filter (a 1 Hz mode with ζ = 0.05 at 5 kHz has a margin of
-/// 6.3e-5), and far above the pole shift the `f32` rounding of the delta coefficients can
-/// cause, so an accepted filter stays stable as stored.
-pub const POLE_MARGIN: f32 = 1.0e-5;
+/// of the origin, i.e. a time constant of at most 1 000 000 samples (500 s at 2 kHz, 50 s
+/// at 20 kHz). Beyond any useful command filter (a 1 Hz mode with ζ = 0.01 at 20 kHz has a
+/// margin of 3.1e-6), and far above the pole shift the `f32` rounding of the delta
+/// coefficients can cause, so an accepted filter stays stable as stored.
+pub const POLE_MARGIN: f32 = 1.0e-6;
 
 /// Coefficients of one second-order section in delta-operator form (see the module docs).
 ///

@@ -216,8 +216,10 @@ fn stability_needs_a_margin() {
         let c = real(p1, p2);
         assert!(c.is_stable(), "{p1} {p2}");
         let expected = 1.0 - f64::max(p1.abs(), p2.abs());
+        // Near z = −1 the f32 α's carry the margin only to their resolution (about 2.4e-7
+        // at α1 ≈ 3); near z = 1 the delta form keeps it to f32 relative precision.
         assert!(
-            (c.pole_margin() - expected).abs() < 0.05 * expected,
+            (c.pole_margin() - expected).abs() < 0.05 * expected + 5.0e-7,
             "{p1} {p2}: {} vs {expected}",
             c.pole_margin()
         );

@@ -86,7 +86,7 @@
 //! - **Calibration**: a write (DOWNLOAD, a block, COPY_CAL_PAGE or an ECU page switch) is
 //!   validated in the `xcp` task as a whole parameter set on a copy (finite, within the A2L
 //!   limits, command filter stable with margin: every pole within 1 − `model_core::POLE_MARGIN`
-//!   = 1 − 1e-5 of the origin, consistent) and swapped in under the application's lock, i.e.
+//!   = 1 − 1e-6 of the origin, consistent) and swapped in under the application's lock, i.e.
 //!   between two control steps; a refused write answers the XCP error (ERR_OUT_OF_RANGE,
 //!   ERR_GENERIC, ERR_ACCESS_DENIED outside the page, ERR_WRITE_PROTECTED into the reference
 //!   page) and changes nothing. The measurement block's `calibration_changes` counts applied
