@@ -1,37 +1,45 @@
 //! The workflow: recalibrate, try candidate effects, select by a validation criterion,
-//! refine by output error, and report.
+//! confirm in simulation, and report.
 //!
-//! 1. The record is split into a fitting part (the first `1 − validation_fraction`) and a
-//!    validation part (the rest).
-//! 2. **Recalibration** of the linear parameters (masses if a force input fixes the scale,
+//! 1. The record is split into interleaved fitting and validation blocks
+//!    ([`crate::split`]): both span the whole record, so the answer does not depend on the
+//!    record's order (an up-sweep and a down-sweep are split alike). Logged inputs drive
+//!    the simulations low-passed an octave above their signal band ([`prefilter_inputs`]),
+//!    so that their measurement noise is not mistaken for an effect.
+//! 2. **Recalibration** of the linear parameters (masses when a measured force — a force
+//!    input, or an element's measured force, e.g. the tyre force — fixes the scale,
 //!    stiffnesses and dampings that are non-zero in the model, one constant force per DOF)
-//!    by equation-error least squares on the fitting part ([`crate::equation`]).
+//!    by equation-error least squares on the fitting blocks ([`crate::equation`]), within
+//!    physical bounds: a mass stays positive, a stiffness or damping non-negative; a
+//!    coefficient the data would put outside is held at its bound and the notes say so.
 //! 3. **Candidates**: each effect on each element (or input) it applies to, its
 //!    coefficients fitted together with the linear parameters (linear least squares; effects
 //!    with a threshold-like parameter — gap, preload, delay, limits, Bouc-Wen shape — by a
-//!    grid over quantiles of the data, each grid point a linear fit, ranked on the start of
-//!    the fitting part holding [`GRID_EFFECTIVE_SAMPLES`] effectively independent rows; the
-//!    [`GRID_FINALISTS`] best grid points are then fitted on the whole fitting part). Candidates are fitted on
-//!    all cores ([`Options::threads`]); the result does not depend on the thread count.
-//! 4. **Selection** on the validation part by the Bayesian information criterion
+//!    grid over quantiles of the data, each grid point a linear fit, ranked on every few
+//!    fitting blocks holding [`GRID_EFFECTIVE_SAMPLES`] effectively independent rows; the
+//!    [`GRID_FINALISTS`] best grid points are then fitted on every fitting block).
+//!    Candidates are fitted on all cores ([`Options::threads`]); the result does not depend
+//!    on the thread count.
+//! 4. **Ranking** on the validation blocks by the Bayesian information criterion
 //!    `Δ = n_eff ln(SSE_candidate / SSE_current) + p ln(n_eff)` with `p` the candidate's
 //!    added parameters and `n_eff` the validation rows divided by the current residual's
 //!    correlation time (so filtered, correlated residuals do not count as independent
-//!    samples). The candidate with the most negative `Δ` is named and added; repeat (greedy
-//!    forward selection) until no candidate has `Δ < 0` or `max_effects` are named. No
-//!    threshold depends on the record.
-//! 5. **Output-error refinement** (models restrained on their own): Levenberg–Marquardt on the
-//!    simulated outputs over the fitting part, all named effects' parameters and the linear
-//!    ones free; kept if it lowers the validation error. Each named effect must also pass
-//!    the selection criterion on the simulated outputs (against the previous stage; if that
-//!    stage's simulation diverges, a finite simulation confirms it), and then a backward
-//!    elimination removes, one at a time, any effect whose removal (the rest refined by
-//!    output error from the final parameters) does not worsen the criterion, or whose
-//!    strength (e.g. `k3`, a friction force, a gap; see `strength`) is not distinguishable
-//!    from none by a Wald test with the criterion's penalty (`z² < ln n_eff`). The
-//!    refinement simulates the start of the fitting part holding
-//!    [`REFINE_EFFECTIVE_SAMPLES`] effectively independent samples per output.
-//! 6. **Gap**: NRMSE of the simulated outputs on the validation part (restrained models),
+//!    samples).
+//! 5. **Confirmation in simulation** (models restrained on their own): the
+//!    [`SELECTION_BRANCHES`] best candidates with `Δ < 0` are each refined by output error
+//!    (Levenberg–Marquardt on the simulated outputs at the fitting blocks, the effect's and
+//!    the linear parameters free) and must pay off on the validation blocks' simulated
+//!    outputs: the same criterion against the current stage, and a practical margin — on
+//!    some output the sum of squares removed reaches [`PRACTICAL_MARGIN`] times that
+//!    output's measurement noise ([`signal::noise_std`]). Of the confirmed ones, the one
+//!    that explains the most is named; the search goes on (greedy forward selection) until
+//!    no candidate is confirmed or `max_effects` are named. A backward elimination then
+//!    removes any effect whose removal (the rest refined by output error) does not fail the
+//!    same test, or whose strength (e.g. `k3`, a friction force, a gap; see `strength`) is
+//!    not distinguishable from none by a Wald test with the criterion's penalty
+//!    (`z² < ln n_eff`). Models that are not restrained (a free mass) are selected by the
+//!    equation-error criterion alone. No threshold depends on the record.
+//! 6. **Gap**: NRMSE of the simulated outputs on the validation blocks (restrained models),
 //!    else of the inverse-dynamics force prediction (equation-error residual over the
 //!    right-hand side's spread).
 
@@ -42,6 +50,7 @@ use crate::model::{InputKind, Model};
 use crate::parallel;
 use crate::record::Record;
 use crate::simulate::{self, prepare_inputs};
+use crate::split::Split;
 use crate::{signal, Error, Result};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -51,7 +60,8 @@ use std::path::{Path, PathBuf};
 /// Options of [`diagnose`].
 #[derive(Clone, Debug)]
 pub struct Options {
-    /// Fraction of the record (its end) held out for validation, in (0, 0.9]; default 0.3.
+    /// Fraction of the record held out for validation (in blocks interleaved with the
+    /// fitting blocks, [`crate::split`]), in (0, 0.9]; default 0.3.
     pub validation_fraction: f64,
     /// Most effects named; default 3.
     pub max_effects: usize,
@@ -80,7 +90,7 @@ impl Default for Options {
     }
 }
 
-/// The error figure of a model on the validation part.
+/// The error figure of a model on the validation blocks.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Gap {
     /// Normalised RMS error (fraction): RMS over the outputs of
@@ -164,15 +174,15 @@ pub struct Diagnosis {
     pub gap_after: Gap,
     /// How the gaps are measured.
     pub basis: GapBasis,
-    /// Fitting samples `0..fit_end`, validation `fit_end..len`.
-    pub fit_end: usize,
+    /// The fitting and validation samples (interleaved blocks).
+    pub split: Split,
     /// Filter cut-off of the state estimate (Hz).
     pub cutoff_hz: f64,
     /// Frequency-band evidence (simulation basis only).
     pub bands: Vec<BandEvidence>,
     /// Operating-region evidence per named element effect (baseline residual).
     pub regions: Vec<RegionEvidence>,
-    /// Time-window evidence (validation part).
+    /// Time-window evidence (the whole record).
     pub windows: Vec<WindowEvidence>,
     /// Remarks (e.g. output-error refinement kept or not).
     pub notes: Vec<String>,
@@ -185,9 +195,9 @@ pub struct JsonReport {
     pub named_effects: Vec<NamedEffect>,
     /// Corrected linear parameters.
     pub recalibrated: BTreeMap<String, f64>,
-    /// Gap of the model as given (validation part).
+    /// Gap of the model as given (validation blocks).
     pub gap_before: Gap,
-    /// Gap of the updated model (validation part).
+    /// Gap of the updated model (validation blocks).
     pub gap_after: Gap,
     /// Path of the updated model file.
     pub updated_model: String,
@@ -234,7 +244,7 @@ impl Diagnosis {
             GapBasis::EquationError => "inverse-dynamics force prediction",
         };
         s.push_str(&format!(
-            "model {:?}: gap on the validation part ({basis}): {:.4} as given, {:.4} recalibrated, {:.4} updated\n",
+            "model {:?}: gap on the validation blocks ({basis}): {:.4} as given, {:.4} recalibrated, {:.4} updated\n",
             self.original.file.name,
             self.gap_before.nrmse,
             self.gap_recalibrated.nrmse,
@@ -334,7 +344,12 @@ impl Param {
         let nonneg = v >= 0.0;
         match self {
             Param::Lin(c) => {
-                if matches!(c, Coef::Mass(_)) && v <= 0.0 {
+                let in_range = match c {
+                    Coef::Mass(_) => v > 0.0,
+                    Coef::K(_) | Coef::C(_) | Coef::KH(_) => v >= 0.0,
+                    _ => true,
+                };
+                if !in_range {
                     return false;
                 }
                 c.set(m, v);
@@ -452,7 +467,12 @@ fn nonlinear_params(model: &Model) -> Vec<Param> {
 
 /// The linear coefficients recalibrated in `model` (see the module documentation).
 fn linear_free(model: &Model) -> Vec<Coef> {
-    let has_force = model.inputs.iter().any(|i| i.kind == InputKind::Force);
+    // A measured force, in or out, fixes the scale of the equations of motion.
+    let has_force = model.inputs.iter().any(|i| i.kind == InputKind::Force)
+        || model
+            .outputs
+            .iter()
+            .any(|o| o.kind == crate::model::OutputKind::Force);
     let mut free = Vec::new();
     for i in 0..model.n() {
         if has_force {
@@ -491,22 +511,80 @@ struct Fit {
     sse_val: f64,
     val_rows: usize,
     tau: f64,
+    /// Coefficients the least-squares fit would have put outside their physical range
+    /// (a mass <= 0, a stiffness or damping < 0), held at their bound instead (a mass at its
+    /// value in the model fitted, a stiffness or damping at 0) and no longer free.
+    bounded: Vec<Coef>,
+}
+
+/// The physical bound a linear coefficient's estimate violates, if any: the value to hold it
+/// at instead.
+fn bound_of(c: Coef, value: f64, held: &Model) -> Option<f64> {
+    match c {
+        Coef::Mass(_) if value <= 0.0 => Some(c.get(held)),
+        Coef::K(_) | Coef::C(_) | Coef::KH(_) if value < 0.0 => Some(0.0),
+        _ => None,
+    }
 }
 
 struct Context<'a> {
     st: &'a States,
     weights: Vec<f64>,
-    fit_end: usize,
+    split: &'a Split,
+    /// Keep the fitting blocks whose index is a multiple of this (1: every fitting block): a
+    /// thinned fitting set spread over the record, for ranking grids.
+    thin: usize,
 }
 
 impl Context<'_> {
     fn is_fit(&self, t: usize) -> bool {
-        t < self.fit_end
+        self.split.is_fit(t) && (self.thin <= 1 || self.split.block_of(t) % self.thin == 0)
     }
 
-    /// Fits `free` in `model` on the fitting part (lift-off: the contact mask is updated
-    /// from the fitted law and the fit repeated).
-    fn fit(&self, mut model: Model, free: &[Coef]) -> Fit {
+    fn is_val(&self, t: usize) -> bool {
+        self.split.is_validation(t)
+    }
+
+    /// Fits `free` in `model` on the fitting blocks (lift-off: the contact mask is updated
+    /// from the fitted law and the fit repeated). A coefficient whose estimate leaves its
+    /// physical range is held at its bound and the rest fitted again ([`Fit::bounded`]).
+    fn fit(&self, model: Model, free: &[Coef]) -> Fit {
+        let held = model.clone();
+        self.fit_bounded(model, free.to_vec(), &held)
+    }
+
+    /// The active set of [`Context::fit`]: fits, holds the coefficient that leaves its range
+    /// furthest (relative to its value in `held`, the model given) at its bound, and fits
+    /// the rest again, until every free coefficient is in range. Holding one coefficient
+    /// moves the others, so one at a time.
+    fn fit_bounded(&self, mut model: Model, mut free: Vec<Coef>, held: &Model) -> Fit {
+        let mut bounded = Vec::new();
+        loop {
+            let f = self.fit_unbounded(model.clone(), &free);
+            let worst = f
+                .free
+                .iter()
+                .filter_map(|&c| {
+                    let v = c.get(&f.model);
+                    bound_of(c, v, held).map(|b| {
+                        let scale = c.get(held).abs().max(f64::MIN_POSITIVE);
+                        (c, b, (v - b).abs() / scale)
+                    })
+                })
+                .max_by(|a, b| a.2.total_cmp(&b.2));
+            let Some((c, b, _)) = worst else {
+                let mut f = f;
+                f.bounded = bounded;
+                return f;
+            };
+            free.retain(|x| *x != c);
+            c.set(&mut model, b);
+            bounded.push(c);
+        }
+    }
+
+    /// [`Context::fit`] without the physical bounds.
+    fn fit_unbounded(&self, mut model: Model, free: &[Coef]) -> Fit {
         let passes = if model.elements.iter().any(|e| e.law.lift_off.is_some()) {
             3
         } else {
@@ -533,11 +611,11 @@ impl Context<'_> {
             unreachable!("at least one pass")
         };
         let val = if sol.sse.is_finite() {
-            sys.residuals(&sol.theta, |t| !self.is_fit(t))
+            sys.residuals(&sol.theta, |t| self.is_val(t))
         } else {
             vec![f64::INFINITY]
         };
-        let dofs = model.n();
+        let dofs = sys.dof.iter().copied().max().map_or(1, |m| m + 1);
         Fit {
             free: free.to_vec(),
             covariance: sol.covariance,
@@ -546,6 +624,7 @@ impl Context<'_> {
             val_rows: val.len(),
             tau: equation::correlation_time_rows(&val, dofs),
             model,
+            bounded: Vec::new(),
         }
     }
 }
@@ -661,7 +740,10 @@ fn fit_candidate(
     let mut free = base.free.clone();
     let (u, ud) = equation::model_inputs(model, st);
     let sig = equation::element_signals(model, st, &u, &ud);
-    let range = st.edge..ctx.fit_end.max(st.edge + 1);
+    // Quantiles over the whole record (less the filter transients): the grid values do not
+    // depend on the record's order.
+    let len = st.q.first().map_or(0, Vec::len);
+    let range = st.edge..len.saturating_sub(st.edge).max(st.edge + 1);
     let e = cand.target;
     let mut variants: Vec<Model> = Vec::new();
     let mut added = 1;
@@ -897,6 +979,226 @@ fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) 
     best
 }
 
+/// Candidates, the best by the equation-error criterion, that each round refines by output
+/// error and tests in simulation: 3 (the search goes on past a best candidate that
+/// simulation does not confirm).
+pub const SELECTION_BRANCHES: usize = 3;
+
+/// The most the grid ranking thins the fitting blocks (every 5th block at most, so that
+/// the thinned set still holds blocks from every part of the record).
+const MAX_THIN: usize = 5;
+
+/// How much an effect must explain to be named (the practical margin): on at least one
+/// output, the validation sum of squares it removes must reach this many times that
+/// output's measurement-noise sum of squares (estimated from the record,
+/// [`signal::noise_std`]) — an effect whose contribution to every output is smaller than
+/// its measurement noise is not named, whatever the criterion says. 1.
+pub const PRACTICAL_MARGIN: f64 = 1.0;
+
+/// The practical margin's floor relative to the output's validation sum of squares before
+/// the effect (for records with little noise): 1 %.
+pub const RELATIVE_FLOOR: f64 = 0.01;
+
+/// The name of the element or input a candidate is on.
+fn target_name(model: &Model, cand: Candidate) -> String {
+    if cand.kind.on_input() {
+        model.inputs[cand.target].name.clone()
+    } else {
+        model.elements[cand.target].name.clone()
+    }
+}
+
+/// A model's simulated outputs on the validation blocks.
+#[derive(Clone, Debug)]
+struct Evaluation {
+    /// Sum of squares of the normalised residual per output.
+    sse: Vec<f64>,
+    /// The normalised residuals, output after output.
+    resid: Vec<f64>,
+}
+
+impl Evaluation {
+    fn total(&self) -> f64 {
+        self.sse.iter().sum()
+    }
+
+    /// Effectively independent samples: residual samples over their correlation time.
+    fn n_eff(&self) -> f64 {
+        (self.resid.len() as f64 / signal::correlation_time(&self.resid)).max(2.0)
+    }
+}
+
+/// Whether an effect pays off, and the figures that say so.
+struct Verdict {
+    confirmed: bool,
+    text: String,
+}
+
+/// Simulation of models over the record, scored on the validation blocks.
+struct Simulated<'a> {
+    record: &'a Record,
+    measured: &'a [&'a [f64]],
+    initial: (&'a [f64], &'a [f64]),
+    val_idx: Vec<usize>,
+    /// Per output: one over the measured output's spread on the validation blocks.
+    scale: Vec<f64>,
+    /// Per output: the validation sum of squares that measurement noise alone gives
+    /// (normalised like the residual).
+    noise_sse: Vec<f64>,
+}
+
+impl<'a> Simulated<'a> {
+    fn new(
+        measured: &'a [&'a [f64]],
+        split: &Split,
+        record: &'a Record,
+        initial: (&'a [f64], &'a [f64]),
+    ) -> Self {
+        let val_idx: Vec<usize> = (0..record.len())
+            .filter(|&t| split.is_validation(t))
+            .collect();
+        let scale: Vec<f64> = measured
+            .iter()
+            .map(|m| {
+                let v: Vec<f64> = val_idx.iter().map(|&t| m[t]).collect();
+                1.0 / signal::std(&v).max(1e-300)
+            })
+            .collect();
+        let noise_sse = measured
+            .iter()
+            .zip(&scale)
+            .map(|(m, sc)| val_idx.len() as f64 * (signal::noise_std(m, record.dt) * sc).powi(2))
+            .collect();
+        Self {
+            record,
+            measured,
+            initial,
+            val_idx,
+            scale,
+            noise_sse,
+        }
+    }
+
+    /// The simulated outputs of `m` over the whole record (`None` if it diverges).
+    fn outputs(&self, m: &Model) -> Option<Vec<Vec<f64>>> {
+        let inp = prepare_inputs(m, self.record).ok()?;
+        simulate::simulate_outputs(
+            m,
+            self.record,
+            &inp,
+            0..self.record.len(),
+            Some(self.initial),
+        )
+        .ok()
+        .map(|s| s.outputs)
+    }
+
+    /// `m`'s residuals on the validation blocks (`None` if the simulation diverges).
+    fn evaluate(&self, m: &Model) -> Option<Evaluation> {
+        let out = self.outputs(m)?;
+        let mut resid = Vec::with_capacity(self.val_idx.len() * out.len());
+        let mut sse = Vec::with_capacity(out.len());
+        for ((me, s), sc) in self.measured.iter().zip(&out).zip(&self.scale) {
+            let from = resid.len();
+            resid.extend(self.val_idx.iter().map(|&t| (s[t] - me[t]) * sc));
+            sse.push(resid[from..].iter().map(|v| v * v).sum::<f64>());
+        }
+        sse.iter()
+            .all(|v| v.is_finite())
+            .then_some(Evaluation { sse, resid })
+    }
+
+    /// The gap (NRMSE on the validation blocks) of `m`, with its simulated outputs.
+    fn gap(&self, m: &Model) -> (Gap, Option<Vec<Vec<f64>>>) {
+        match self.outputs(m) {
+            Some(out) => {
+                let v: Vec<f64> = self
+                    .measured
+                    .iter()
+                    .zip(&out)
+                    .zip(&self.scale)
+                    .map(|((me, s), sc)| {
+                        let e: Vec<f64> = self.val_idx.iter().map(|&t| s[t] - me[t]).collect();
+                        (signal::rms(&e) * sc).powi(2)
+                    })
+                    .collect();
+                (
+                    Gap {
+                        nrmse: signal::mean(&v).sqrt(),
+                    },
+                    Some(out),
+                )
+            }
+            None => (
+                Gap {
+                    nrmse: f64::INFINITY,
+                },
+                None,
+            ),
+        }
+    }
+
+    /// Whether going from `before` to `after` with `added` parameters pays off: the
+    /// criterion `Δ = n_eff ln(SSE_after / SSE_before) + added ln n_eff < 0` (n_eff from
+    /// `before`'s residual) and, on at least one output, the sum of squares removed reaches
+    /// [`PRACTICAL_MARGIN`] times that output's noise sum of squares (at least
+    /// [`RELATIVE_FLOOR`] of its sum of squares before).
+    fn pays_off(&self, before: &Evaluation, after: &Evaluation, added: usize) -> Verdict {
+        let n_eff = before.n_eff();
+        let ratio = after.total() / before.total();
+        let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
+        let margin = before
+            .sse
+            .iter()
+            .zip(&after.sse)
+            .zip(&self.noise_sse)
+            .map(|((b, a), noise)| (b - a) / noise.max(RELATIVE_FLOOR * b).max(f64::MIN_POSITIVE))
+            .fold(f64::NEG_INFINITY, f64::max);
+        Verdict {
+            confirmed: crit.is_finite() && crit < 0.0 && margin >= PRACTICAL_MARGIN,
+            text: format!(
+                "validation SSE x{ratio:.3}, criterion {crit:.1}, explains {margin:.2}x the noise on its best output"
+            ),
+        }
+    }
+}
+
+/// The record as the diagnosis uses it: each input column that is not also an output is
+/// low-passed (zero phase, [`signal::lowpass_zero_phase`]) an octave above its own signal
+/// band edge ([`signal::signal_band_edge_hz`] at [`equation::SNR`]; at least 0.002 of the
+/// sample rate, and left as it is when that is above 0.4 of it). A logged input carries measurement
+/// noise like any channel; driven through a stiff path (a tyre's stiffness and damping from
+/// a logged road) its noise, differentiated, would dominate the simulated outputs and be
+/// mistaken for an effect that smooths the input (a delay, a saturation, quadratic damping).
+/// Returns the record and, per filtered column, its name and cut-off (Hz).
+pub fn prefilter_inputs(model: &Model, record: &Record) -> (Record, Vec<(String, f64)>) {
+    let mut out = record.clone();
+    let mut filtered = Vec::new();
+    let fs = 1.0 / record.dt;
+    for inp in &model.inputs {
+        if model.outputs.iter().any(|o| o.column == inp.column) {
+            continue;
+        }
+        let Some(j) = out.names.iter().position(|n| *n == inp.column) else {
+            continue;
+        };
+        if filtered.iter().any(|(n, _)| *n == inp.column) {
+            continue;
+        }
+        let col = &out.columns[j];
+        // An octave above the band edge, so that the band itself passes (the forward-backward
+        // fourth-order Butterworth keeps 99 % of the amplitude at half its cut-off).
+        let fc = 2.0 * signal::signal_band_edge_hz(col, record.dt, equation::SNR);
+        if fc >= 0.4 * fs {
+            continue;
+        }
+        let fc = fc.max(0.002 * fs);
+        out.columns[j] = signal::lowpass_zero_phase(col, fc, record.dt);
+        filtered.push((inp.column.clone(), fc));
+    }
+    (out, filtered)
+}
+
 /// Runs the workflow on `model` and `record` (see the module documentation); with
 /// `options.progress` it prints progress lines to stderr.
 ///
@@ -937,9 +1239,27 @@ pub fn diagnose_with_progress(
     for o in &model.outputs {
         record.column(&o.column)?;
     }
-    let fit_end = ((1.0 - options.validation_fraction) * len as f64).round() as usize;
+    for i in &model.inputs {
+        record.column(&i.column)?;
+    }
+    // The equation error filters every regressor alike (inputs included); the simulations
+    // are driven by the inputs low-passed at their own band edges.
     let st = equation::estimate_states(model, record)?;
-    if fit_end <= st.edge + 16 * st.decimation || len - fit_end <= st.edge + 16 * st.decimation {
+    let (prefiltered, input_cutoffs) = prefilter_inputs(model, record);
+    let record = &prefiltered;
+    // Blocks of at least four filter transients, a guard of one cut-off period.
+    let split = Split::new(
+        len,
+        options.validation_fraction,
+        4 * st.edge.max(1),
+        (1.0 / (st.fc_hz * st.dt)).ceil() as usize,
+    );
+    let kept = st.cache.keep();
+    let (fit_rows, val_rows) = (
+        kept.iter().filter(|&&t| split.is_fit(t)).count(),
+        kept.iter().filter(|&&t| split.is_validation(t)).count(),
+    );
+    if fit_rows < 16 || val_rows < 16 {
         return Err(Error::Diagnose(format!(
             "record too short for a fitting and a validation part ({len} samples)"
         )));
@@ -947,8 +1267,11 @@ pub fn diagnose_with_progress(
     log(
         0.05,
         &format!(
-            "states estimated, cut-off {:.2} Hz, decimation {}",
-            st.fc_hz, st.decimation
+            "states estimated, cut-off {:.2} Hz, decimation {}, {} blocks of {} samples",
+            st.fc_hz,
+            st.decimation,
+            len.div_ceil(split.block),
+            split.block
         ),
     );
     // Row weights: one over each DOF's inertia-force spread.
@@ -965,7 +1288,8 @@ pub fn diagnose_with_progress(
     let ctx = Context {
         st: &st,
         weights,
-        fit_end,
+        split: &split,
+        thin: 1,
     };
     // Linear recalibration, starting from the model without its effects' coefficients held.
     let free0 = {
@@ -975,33 +1299,85 @@ pub fn diagnose_with_progress(
     };
     let mut current = ctx.fit(model.clone(), &free0);
     let recal_fit = current.clone();
+    let mut notes: Vec<String> = input_cutoffs
+        .iter()
+        .map(|(c, fc)| format!("input column {c:?} low-passed at {fc:.1} Hz (an octave above its signal band edge)"))
+        .collect();
+    for c in &recal_fit.bounded {
+        notes.push(format!(
+            "{}: the record puts it outside its physical range; held at {:.6e} (bound active)",
+            c.label(model),
+            c.get(&recal_fit.model)
+        ));
+    }
     log(
         0.1,
         &format!("recalibrated, validation SSE {:.4e}", current.sse_val),
     );
+    let restrained = recal_fit.model.is_restrained();
+    let oe = restrained && options.output_error;
+    let inputs = prepare_inputs(model, record)?;
+    let q0: Vec<f64> = st.q.iter().map(|q| q[0]).collect();
+    let qd0: Vec<f64> = st.qd.iter().map(|q| q[0]).collect();
+    let measured: Vec<&[f64]> = model
+        .outputs
+        .iter()
+        .map(|o| record.column(&o.column))
+        .collect::<Result<_>>()?;
+    let sim = Simulated::new(&measured, &split, record, (&q0, &qd0));
+    let refine_on = RefineOn {
+        record,
+        measured: &measured,
+        split: &split,
+        st: &st,
+        initial: (&q0, &qd0),
+    };
+    let threads = parallel::threads(options.threads);
+    // The model each stage reaches, refined by output error where the model is restrained,
+    // with its parameters' covariance and its simulated validation residual.
+    let mut recal_model = recal_fit.model.clone();
+    let mut cov_params: Vec<Param> = current.free.iter().map(|c| Param::Lin(*c)).collect();
+    let mut cov = current.covariance.clone();
+    let mut cur_eval = None;
+    if oe {
+        log(0.12, "output-error refinement of the recalibrated model");
+        let start_eval = sim.evaluate(&recal_model);
+        if let Some((m, pc)) =
+            refine_output_error(&recal_model, &recal_fit.free, &refine_on, threads)
+        {
+            let ev = sim.evaluate(&m);
+            let better = match (&ev, &start_eval) {
+                (Some(a), Some(b)) => a.total() <= b.total(),
+                (Some(_), None) => true,
+                _ => false,
+            };
+            if better {
+                recal_model = m;
+                (cov_params, cov) = pc;
+            }
+        }
+        cur_eval = sim.evaluate(&recal_model);
+    }
+    let mut updated = recal_model.clone();
     let mut named: Vec<NamedDetail> = Vec::new();
     let mut scores = Vec::new();
-    let mut stages: Vec<(Fit, usize)> = Vec::new();
-    let threads = parallel::threads(options.threads);
+    let mut added_of: Vec<usize> = Vec::new();
     for round in 0..options.max_effects {
         let n_eff = (current.val_rows as f64 / current.tau).max(2.0);
-        let mut best: Option<(f64, f64, Fit, Candidate, usize)> = None;
         // The grids of the threshold-like parameters (gaps, preloads, delays, limits, the
-        // Bouc-Wen shape) are searched on the start of the fitting part holding
-        // `GRID_EFFECTIVE_SAMPLES` effectively independent rows (the current residual's
-        // correlation time sets how many rows that is), and the best grid point is then
-        // fitted on the whole fitting part: ranking a handful of grid values needs far
-        // fewer samples than the final estimate. Records shorter than that use it all.
-        let grid_states = {
-            let rows = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0);
-            let samples = st.edge + (rows * st.decimation as f64).ceil() as usize;
-            (samples + st.edge < fit_end).then(|| st.prefix(samples + st.edge))
+        // Bouc-Wen shape) are ranked on a thinned fitting set, every `thin`-th block, that
+        // holds `GRID_EFFECTIVE_SAMPLES` effectively independent rows and still spans the
+        // record; the best grid points are then fitted on every fitting block.
+        let grid_ctx = {
+            let needed = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0) / model.n() as f64;
+            let thin = ((fit_rows as f64 / needed).floor() as usize).min(MAX_THIN);
+            (thin >= 2).then(|| Context {
+                st: &st,
+                weights: ctx.weights.clone(),
+                split: &split,
+                thin,
+            })
         };
-        let grid_ctx = grid_states.as_ref().map(|g| Context {
-            st: g,
-            weights: ctx.weights.clone(),
-            fit_end: g.q.first().map_or(0, Vec::len) - g.edge,
-        });
         let cands = candidates(&current.model, &options.candidates);
         // The costly grids start first, so that the threads finish together; the results
         // are taken in the candidates' order.
@@ -1009,17 +1385,16 @@ pub fn diagnose_with_progress(
         work.sort_by_key(|&i| std::cmp::Reverse(cand_cost(cands[i].kind)));
         let n_cands = cands.len().max(1) as f64;
         let mut finished = 0usize;
+        let rounds = options.max_effects.max(1) as f64;
         let mut fits: Vec<Option<(Fit, usize)>> = parallel::map(
             &work,
             threads,
             |&i| fit_candidate(&ctx, grid_ctx.as_ref(), &current, cands[i]),
             |w, fit| {
                 let i = work[w];
-                // Selection rounds share 0.1..0.6 of the work; later rounds may not happen.
+                // Selection rounds share 0.15..0.85 of the work; later rounds may not happen.
                 finished += 1;
-                let done = 0.1
-                    + 0.5 * (round as f64 + finished as f64 / n_cands)
-                        / options.max_effects.max(1) as f64;
+                let done = 0.15 + 0.7 * (round as f64 + 0.5 * finished as f64 / n_cands) / rounds;
                 let cand = cands[i];
                 let what = match fit {
                     None => "no fit".to_string(),
@@ -1030,14 +1405,13 @@ pub fn diagnose_with_progress(
                         format!("Δ = {crit:.1}, SSE x{ratio:.4}")
                     }
                 };
-                let target = if cand.kind.on_input() {
-                    &current.model.inputs[cand.target].name
-                } else {
-                    &current.model.elements[cand.target].name
-                };
                 log(
                     done,
-                    &format!("round {round}: {} on {target:?}: {what}", cand.kind),
+                    &format!(
+                        "round {round}: {} on {:?}: {what}",
+                        cand.kind,
+                        target_name(&current.model, cand)
+                    ),
                 );
             },
         );
@@ -1045,6 +1419,7 @@ pub fn diagnose_with_progress(
         for (&i, fit) in work.iter().zip(fits.drain(..)) {
             by_candidate[i] = fit;
         }
+        let mut ranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
         for (cand, fit) in cands.into_iter().zip(by_candidate) {
             let Some((fit, added)) = fit else {
                 continue;
@@ -1054,328 +1429,216 @@ pub fn diagnose_with_progress(
             }
             let ratio = fit.sse_val / current.sse_val;
             let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
-            let target = if cand.kind.on_input() {
-                current.model.inputs[cand.target].name.clone()
-            } else {
-                current.model.elements[cand.target].name.clone()
-            };
             scores.push(CandidateScore {
                 round,
                 effect: cand.kind,
-                element: target,
+                element: target_name(&current.model, cand),
                 criterion: crit,
                 sse_ratio: ratio,
                 parameters_added: added,
             });
-            if crit.is_finite() && crit < 0.0 && best.as_ref().is_none_or(|b| crit < b.0) {
-                best = Some((crit, ratio, fit, cand, added));
+            if crit.is_finite() && crit < 0.0 {
+                ranked.push((crit, ratio, fit, cand, added));
             }
         }
-        let Some((crit, ratio, fit, cand, added)) = best else {
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let chosen = if oe {
+            // The best few by the equation error are each refined by output error and must
+            // pay off in simulation on the validation blocks; the one that explains the most
+            // is taken (so a candidate the equation error ranks first but simulation does not
+            // confirm does not end the search).
+            ranked.truncate(SELECTION_BRANCHES);
+            log(
+                0.15 + 0.7 * (round as f64 + 0.5) / rounds,
+                &format!(
+                    "round {round}: output-error refinement of the best {}",
+                    ranked.len()
+                ),
+            );
+            let refined = parallel::map(
+                &ranked,
+                threads,
+                |(_, _, fit, _, _)| {
+                    let (m, pc) = refine_output_error(&fit.model, &fit.free, &refine_on, threads)?;
+                    let ev = sim.evaluate(&m)?;
+                    Some((m, pc, ev))
+                },
+                |_, _| {},
+            );
+            let mut best: Option<(usize, Model, Covariance, Evaluation)> = None;
+            for (i, r) in refined.into_iter().enumerate() {
+                let (_, _, fit, cand, added) = &ranked[i];
+                let what = format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand));
+                let Some((m, pc, ev)) = r else {
+                    notes.push(format!(
+                        "round {round}: {what}: simulation diverged, not confirmed"
+                    ));
+                    continue;
+                };
+                let verdict = match &cur_eval {
+                    Some(prev) => sim.pays_off(prev, &ev, *added),
+                    None => Verdict {
+                        confirmed: true,
+                        text: "the model without it diverges, with it the simulation stays finite"
+                            .into(),
+                    },
+                };
+                notes.push(format!(
+                    "round {round}: {what}: {} by simulation ({})",
+                    if verdict.confirmed {
+                        "confirmed"
+                    } else {
+                        "not confirmed"
+                    },
+                    verdict.text
+                ));
+                if verdict.confirmed
+                    && best
+                        .as_ref()
+                        .is_none_or(|(_, _, _, b)| ev.total() < b.total())
+                {
+                    best = Some((i, m, pc, ev));
+                }
+            }
+            best.map(|(i, m, pc, ev)| {
+                cur_eval = Some(ev);
+                updated = m;
+                (cov_params, cov) = pc;
+                ranked.swap_remove(i)
+            })
+        } else {
+            (!ranked.is_empty()).then(|| ranked.swap_remove(0))
+        };
+        let Some((crit, ratio, fit, cand, added)) = chosen else {
             break;
         };
-        let target = if cand.kind.on_input() {
-            fit.model.inputs[cand.target].name.clone()
-        } else {
-            fit.model.elements[cand.target].name.clone()
-        };
+        if !oe {
+            updated = fit.model.clone();
+            cov_params = fit.free.iter().map(|c| Param::Lin(*c)).collect();
+            cov = fit.covariance.clone();
+        }
         named.push(NamedDetail {
             named: NamedEffect {
                 effect: cand.kind,
-                element: target,
+                element: target_name(&fit.model, cand),
                 parameters: BTreeMap::new(),
             },
             std: BTreeMap::new(),
             criterion: crit,
             sse_ratio: ratio,
         });
-        stages.push((fit.clone(), added));
+        added_of.push(added);
         current = fit;
     }
-    let restrained = current.model.is_restrained() && recal_fit.model.is_restrained();
-    let basis = if restrained {
+    // Backward elimination in simulation: each named effect is removed from the final model
+    // in turn and the rest refined by output error from the final parameters; an effect is
+    // dropped when the model without it, equally refined, is as good by the same test (a
+    // later effect may explain what an earlier one stood in for), or when its strength (e.g.
+    // `k3`, a friction force, a gap; see `strength`) is not distinguishable from none by a
+    // Wald test with the criterion's penalty (`z² < ln n_eff`).
+    if oe && named.len() > 1 {
+        log(0.9, "backward elimination by simulation");
+        let mut free_now = current.free.clone();
+        let without = |updated: &Model, free_now: &[Coef], what: EffectKind, target: &str| {
+            let mut m_wo = updated.clone();
+            if what.on_input() {
+                if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
+                    inp.law.remove(what);
+                }
+            } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target) {
+                el.law.remove(what);
+            }
+            let coefs_with = effect_coefs(updated);
+            let coefs_wo = effect_coefs(&m_wo);
+            let free_wo: Vec<Coef> = free_now
+                .iter()
+                .copied()
+                .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
+                .collect();
+            refine_output_error(&m_wo, &free_wo, &refine_on, threads).and_then(|(m2, pc)| {
+                let ev = sim.evaluate(&m2)?;
+                Some((m2, pc, ev, free_wo))
+            })
+        };
+        // Every removal from the final model, refined concurrently; they stay valid until an
+        // effect is dropped (which changes the model the rest start from).
+        let effects: Vec<(EffectKind, String)> = named
+            .iter()
+            .map(|n| (n.named.effect, n.named.element.clone()))
+            .collect();
+        let mut speculative: Vec<Option<_>> = parallel::map(
+            &effects,
+            threads,
+            |(what, target)| without(&updated, &free_now, *what, target),
+            |_, _| {},
+        )
+        .into_iter()
+        .map(Some)
+        .collect();
+        let mut dropped_any = false;
+        for i in (0..named.len()).rev() {
+            let Some(with) = cur_eval.clone() else { break };
+            let what = named[i].named.effect;
+            let target = named[i].named.element.clone();
+            let n_eff_with = with.n_eff();
+            let wald = strength(&updated, what, &target).and_then(|par| {
+                let k = cov_params.iter().position(|x| *x == par)?;
+                let var = cov[(k, k)];
+                let v = par.get(&updated);
+                (var.is_finite() && var > 0.0).then(|| v * v / var)
+            });
+            let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
+            let refined_without = match speculative.get_mut(i).and_then(Option::take) {
+                Some(r) if !dropped_any => r,
+                _ => without(&updated, &free_now, what, &target),
+            };
+            let Some((m2, pc, ev_wo, free_wo)) = refined_without else {
+                continue;
+            };
+            let verdict = sim.pays_off(&ev_wo, &with, added_of[i]);
+            if weak || !verdict.confirmed {
+                let why = match wald {
+                    Some(z2) if weak => format!(
+                        "its strength is within {:.2} standard errors of none (Wald z² {z2:.2} < ln n_eff = {:.1})",
+                        z2.sqrt(),
+                        n_eff_with.ln()
+                    ),
+                    _ => "the other effects refined without it do about as well in simulation".into(),
+                };
+                notes.push(format!("{what}: dropped, {why} ({})", verdict.text));
+                named.remove(i);
+                added_of.remove(i);
+                updated = m2;
+                free_now = free_wo;
+                (cov_params, cov) = pc;
+                cur_eval = Some(ev_wo);
+                dropped_any = true;
+            }
+        }
+    }
+    let basis = if restrained && updated.is_restrained() {
         GapBasis::Simulation
     } else {
         GapBasis::EquationError
     };
-    let mut notes = Vec::new();
-    let mut updated = current.model.clone();
-    let mut recal_model = recal_fit.model.clone();
-    // Uncertainty from the equation-error covariance.
-    let mut cov_params: Vec<Param> = current.free.iter().map(|c| Param::Lin(*c)).collect();
-    let mut cov = current.covariance.clone();
-    let inputs = prepare_inputs(model, record)?;
-    let q0: Vec<f64> = st.q.iter().map(|q| q[0]).collect();
-    let qd0: Vec<f64> = st.qd.iter().map(|q| q[0]).collect();
-    let measured: Vec<&[f64]> = model
-        .outputs
-        .iter()
-        .map(|o| record.column(&o.column))
-        .collect::<Result<_>>()?;
-    let sim_gap = |m: &Model| -> (Gap, Option<Vec<Vec<f64>>>) {
-        let inp = match prepare_inputs(m, record) {
-            Ok(i) => i,
-            Err(_) => return (Gap { nrmse: f64::NAN }, None),
-        };
-        match simulate::simulate_outputs(m, record, &inp, 0..len, Some((&q0, &qd0))) {
-            Ok(sim) => {
-                let v: Vec<f64> = measured
-                    .iter()
-                    .zip(&sim.outputs)
-                    .map(|(me, s)| signal::nrmse(&me[fit_end..], &s[fit_end..]).powi(2))
-                    .collect();
-                (
-                    Gap {
-                        nrmse: signal::mean(&v).sqrt(),
-                    },
-                    Some(sim.outputs),
-                )
-            }
-            Err(_) => (
-                Gap {
-                    nrmse: f64::INFINITY,
-                },
-                None,
-            ),
-        }
-    };
     let ee_gap = |m: &Model| -> Gap {
         let sys = equation::build(m, &st, &[], &ctx.weights);
-        let r = sys.residuals(&[], |t| t >= fit_end);
+        let r = sys.residuals(&[], |t| split.is_validation(t));
         // Normalised by the spread of the measured generalised forces (the inputs').
         let forces = equation::build(&strip(m), &st, &[], &ctx.weights);
-        let f = forces.residuals(&[], |t| t >= fit_end);
+        let f = forces.residuals(&[], |t| split.is_validation(t));
         Gap {
             nrmse: signal::rms(&r) / signal::std(&f).max(1e-300),
         }
     };
-    let (gap_before, gap_recalibrated, gap_after, sims) = if restrained {
-        if options.output_error {
-            // The recalibrated model and every stage are refined independently (each from
-            // its own equation-error fit), so the refinements run concurrently; the
-            // confirmations below then take them in order.
-            log(
-                0.6,
-                &format!(
-                    "output-error refinement of the recalibrated model and {} stage(s)",
-                    stages.len()
-                ),
-            );
-            let jobs: Vec<(&Model, &[Coef])> = std::iter::once((&recal_model, &recal_fit.free[..]))
-                .chain(stages.iter().map(|(f, _)| (&f.model, &f.free[..])))
-                .collect();
-            // Each refinement also spreads its Jacobian over the threads, so that the last
-            // one to finish uses every core.
-            let inner = threads;
-            let mut refined_done = 0usize;
-            let mut refined: Vec<Option<(Model, Covariance)>> = parallel::map(
-                &jobs,
-                threads,
-                |(m, free)| {
-                    refine_output_error(m, free, record, &measured, fit_end, (&q0, &qd0), inner)
-                },
-                |_, _| {
-                    refined_done += 1;
-                    log(
-                        0.6 + 0.3 * refined_done as f64 / jobs.len() as f64,
-                        &format!(
-                            "output-error refinement {refined_done} of {} done",
-                            jobs.len()
-                        ),
-                    );
-                },
-            );
-            if let Some((m, _)) = refined[0].take() {
-                if sim_gap(&m).0.nrmse <= sim_gap(&recal_model).0.nrmse {
-                    recal_model = m;
-                }
-            }
-            // Each named effect must also pay off in simulation (output error is free of
-            // the errors-in-variables bias of the equation error): the same criterion on
-            // the validation part's simulated outputs, in the order the effects were named.
-            let val_res = |m: &Model| -> Option<Vec<f64>> {
-                let inp = prepare_inputs(m, record).ok()?;
-                let sim =
-                    simulate::simulate_outputs(m, record, &inp, 0..len, Some((&q0, &qd0))).ok()?;
-                let mut r = Vec::new();
-                for (me, s) in measured.iter().zip(&sim.outputs) {
-                    let sc = 1.0 / signal::std(&me[fit_end..]).max(1e-300);
-                    r.extend((fit_end..len).map(|t| (s[t] - me[t]) * sc));
-                }
-                Some(r)
-            };
-            let sse = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-            updated = recal_model.clone();
-            let mut prev = val_res(&recal_model);
-            let mut kept = 0;
-            for (k, (_, added)) in stages.iter().enumerate() {
-                // A previous model whose simulation diverges (e.g. a linear recalibration
-                // that absorbed an input delay into a negative damping) gives no ratio: the
-                // stage is then confirmed if its own simulation stays finite.
-                let prev_r = prev.clone().filter(|r| sse(r).is_finite());
-                let what = named[k].named.effect;
-                let Some((m, (params, c), r)) = refined[k + 1].take().and_then(|(m, pc)| {
-                    let r = val_res(&m).filter(|r| sse(r).is_finite())?;
-                    Some((m, pc, r))
-                }) else {
-                    notes.push(format!("{what}: simulation diverged, not confirmed"));
-                    break;
-                };
-                let confirmed = match &prev_r {
-                    Some(prev_r) => {
-                        let n_eff =
-                            (prev_r.len() as f64 / signal::correlation_time(prev_r)).max(2.0);
-                        let ratio = sse(&r) / sse(prev_r);
-                        let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
-                        if crit.is_finite() && crit < 0.0 {
-                            notes.push(format!(
-                                "{what}: confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1})"
-                            ));
-                            true
-                        } else {
-                            notes.push(format!(
-                                "{what}: not confirmed by simulation (validation SSE x{ratio:.3}, criterion {crit:.1}); dropped"
-                            ));
-                            false
-                        }
-                    }
-                    None => {
-                        notes.push(format!(
-                            "{what}: confirmed by simulation (the model without it diverges, with it the simulation stays finite)"
-                        ));
-                        true
-                    }
-                };
-                if !confirmed {
-                    break;
-                }
-                kept = k + 1;
-                updated = m;
-                cov_params = params;
-                cov = c;
-                prev = Some(r);
-            }
-            named.truncate(kept);
-            // Backward elimination in simulation: each kept effect is removed from the
-            // final model in turn and the rest refined by output error from the final
-            // parameters; an effect is dropped when the model without it, equally refined,
-            // is as good by the same criterion (a later effect may explain what an earlier
-            // one stood in for, and refining a larger model may converge further for
-            // reasons other than the added effect).
-            if kept > 0 {
-                let mut free_now = stages[kept - 1].0.free.clone();
-                let mut added_of: Vec<usize> = stages[..kept].iter().map(|s| s.1).collect();
-                log(0.92, "backward elimination by simulation");
-                // The model without effect `i`, refined by output error: `(model, covariance,
-                // validation residuals, free coefficients)`.
-                let without =
-                    |updated: &Model, free_now: &[Coef], what: EffectKind, target: &str| {
-                        let mut m_wo = updated.clone();
-                        if what.on_input() {
-                            if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
-                                inp.law.remove(what);
-                            }
-                        } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target)
-                        {
-                            el.law.remove(what);
-                        }
-                        let coefs_with = effect_coefs(updated);
-                        let coefs_wo = effect_coefs(&m_wo);
-                        let free_wo: Vec<Coef> = free_now
-                            .iter()
-                            .copied()
-                            .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
-                            .collect();
-                        refine_output_error(
-                            &m_wo,
-                            &free_wo,
-                            record,
-                            &measured,
-                            fit_end,
-                            (&q0, &qd0),
-                            threads,
-                        )
-                        .and_then(|(m2, pc)| {
-                            let r = val_res(&m2).filter(|r| sse(r).is_finite())?;
-                            Some((m2, pc, r, free_wo))
-                        })
-                    };
-                // Every removal from the final model, refined concurrently; they stay valid
-                // until an effect is dropped (which changes the model the rest start from).
-                let effects: Vec<(EffectKind, String)> = named
-                    .iter()
-                    .map(|n| (n.named.effect, n.named.element.clone()))
-                    .collect();
-                let mut speculative: Vec<Option<_>> = parallel::map(
-                    &effects,
-                    threads,
-                    |(what, target)| without(&updated, &free_now, *what, target),
-                    |_, _| {},
-                )
-                .into_iter()
-                .map(Some)
-                .collect();
-                let mut dropped_any = false;
-                for i in (0..named.len()).rev() {
-                    // (Removing the last effect gives the previous stage's structure, but
-                    // refined from a different start: Levenberg–Marquardt from the previous
-                    // stage's equation-error fit may stop short of where it gets from here,
-                    // which would credit the last effect with the difference.)
-                    let Some(r_with) = prev.clone() else { break };
-                    let what = named[i].named.effect;
-                    let target = named[i].named.element.clone();
-                    // Wald test of the effect's strength against its null value (where it has
-                    // one), on the final refinement's covariance, with the criterion's
-                    // penalty per parameter: z² must exceed ln(n_eff).
-                    let n_eff_with =
-                        (r_with.len() as f64 / signal::correlation_time(&r_with)).max(2.0);
-                    let wald = strength(&updated, what, &target).and_then(|par| {
-                        let k = cov_params.iter().position(|x| *x == par)?;
-                        let var = cov[(k, k)];
-                        let v = par.get(&updated);
-                        (var.is_finite() && var > 0.0).then(|| v * v / var)
-                    });
-                    let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
-                    let refined_without = match speculative.get_mut(i).and_then(Option::take) {
-                        Some(r) if !dropped_any => r,
-                        _ => without(&updated, &free_now, what, &target),
-                    };
-                    let Some((m2, pc, r_wo, free_wo)) = refined_without else {
-                        continue;
-                    };
-                    let n_eff = (r_wo.len() as f64 / signal::correlation_time(&r_wo)).max(2.0);
-                    let ratio = sse(&r_with) / sse(&r_wo);
-                    let crit = n_eff * ratio.ln() + added_of[i] as f64 * n_eff.ln();
-                    if weak || !(crit.is_finite() && crit < 0.0) {
-                        let why = match wald {
-                            Some(z2) if weak => format!(
-                                "its strength is within {:.2} standard errors of none (Wald z² {z2:.2} < ln n_eff = {:.1})",
-                                z2.sqrt(),
-                                n_eff_with.ln()
-                            ),
-                            _ => "the other effects refined without it do as well in simulation".into(),
-                        };
-                        notes.push(format!(
-                            "{what}: dropped, {why} (validation SSE x{ratio:.3} with it, criterion {crit:.1})"
-                        ));
-                        named.remove(i);
-                        added_of.remove(i);
-                        updated = m2;
-                        free_now = free_wo;
-                        (cov_params, cov) = pc;
-                        prev = Some(r_wo);
-                        dropped_any = true;
-                    }
-                }
-            }
-        }
-        let (b, _) = sim_gap(model);
-        let (r, sr) = sim_gap(&recal_model);
-        let (a, sa) = sim_gap(&updated);
+    let (gap_before, gap_recalibrated, gap_after, sims) = if basis == GapBasis::Simulation {
+        let (b, _) = sim.gap(model);
+        let (r, sr) = sim.gap(&recal_model);
+        let (a, sa) = sim.gap(&updated);
         (b, r, a, sr.zip(sa))
     } else {
         notes.push(
-            "the model is not restrained on its own (free simulation drifts): gaps are the inverse-dynamics force prediction on the validation part"
+            "the model is not restrained on its own (free simulation drifts): gaps are the inverse-dynamics force prediction on the validation blocks"
                 .into(),
         );
         (ee_gap(model), ee_gap(&recal_model), ee_gap(&updated), None)
@@ -1451,7 +1714,7 @@ pub fn diagnose_with_progress(
     let mut bands = Vec::new();
     let mut windows = Vec::new();
     if let Some((before, after)) = &sims {
-        windows = evidence::windows(&measured, before, after, fit_end..len, record.t0, record.dt);
+        windows = evidence::windows(&measured, before, after, 0..len, record.t0, record.dt);
         for (inp, u) in model.inputs.iter().zip(&inputs) {
             for (o, y) in model.outputs.iter().enumerate() {
                 bands.extend(evidence::frf_bands(
@@ -1481,7 +1744,7 @@ pub fn diagnose_with_progress(
         gap_recalibrated,
         gap_after,
         basis,
-        fit_end,
+        split,
         cutoff_hz: st.fc_hz,
         bands,
         regions,
@@ -1553,58 +1816,89 @@ fn parameter_std(
         .collect()
 }
 
-/// Levenberg–Marquardt on the simulated outputs over the start of the fitting part
-/// `0..fit_end` holding [`REFINE_EFFECTIVE_SAMPLES`] effectively independent samples per
-/// output (judged on the start model's residual); the parameters
-/// are the linear coefficients `free` and the effects' other parameters. Returns the
-/// refined model and the parameters with their covariance (σ² (JᵀJ)⁻¹ inflated by the
-/// residual's correlation time), or `None` if the start diverges.
+/// What the output-error refinement fits on: the record, its measured outputs, the split and
+/// the estimated states (initial states of the simulated windows).
+struct RefineOn<'a> {
+    record: &'a Record,
+    measured: &'a [&'a [f64]],
+    split: &'a Split,
+    st: &'a States,
+    /// DOF positions and velocities at the record's first sample.
+    initial: (&'a [f64], &'a [f64]),
+}
+
+/// Windows the output-error refinement simulates when the fitting blocks hold more than its
+/// budget ([`REFINE_EFFECTIVE_SAMPLES`]): 8, evenly spread over the record.
+pub const REFINE_WINDOWS: usize = 8;
+
+/// Levenberg–Marquardt on the simulated outputs at the fitting blocks' samples; the
+/// parameters are the linear coefficients `free` and the effects' other parameters. The
+/// whole record is simulated when its fitting blocks hold at most
+/// [`REFINE_EFFECTIVE_SAMPLES`] effectively independent samples per output (judged on the
+/// start model's residual); a longer record is simulated in [`REFINE_WINDOWS`] windows
+/// spread over it that together hold that many, each started from the estimated states at
+/// its start and scored after its first fifth. Returns the refined model and the parameters
+/// with their covariance (σ² (JᵀJ)⁻¹ inflated by the residual's correlation time), or `None`
+/// if the start diverges.
 fn refine_output_error(
     model: &Model,
     free: &[Coef],
-    record: &Record,
-    measured: &[&[f64]],
-    fit_end: usize,
-    initial: (&[f64], &[f64]),
+    on: &RefineOn<'_>,
     threads: usize,
 ) -> Option<(Model, Covariance)> {
+    let (record, measured, split) = (on.record, on.measured, on.split);
+    let len = record.len();
     let mut params: Vec<Param> = free.iter().map(|c| Param::Lin(*c)).collect();
     params.extend(nonlinear_params(model));
     let p = params.len();
+    let fit_idx: Vec<usize> = (0..len).filter(|&t| split.is_fit(t)).collect();
     let scale: Vec<f64> = measured
         .iter()
-        .map(|m| 1.0 / signal::std(&m[..fit_end]).max(1e-300))
+        .map(|m| {
+            let v: Vec<f64> = fit_idx.iter().map(|&t| m[t]).collect();
+            1.0 / signal::std(&v).max(1e-300)
+        })
         .collect();
-    let residual_to = |m: &Model, end: usize| -> Option<Vec<f64>> {
+    // Simulated windows `(range, initial positions, velocities, first scored sample)`.
+    type Window = (std::ops::Range<usize>, Vec<f64>, Vec<f64>, usize);
+    let residual_on = |m: &Model, windows: &[Window]| -> Option<Vec<f64>> {
         let inp = prepare_inputs(m, record).ok()?;
-        let sim = simulate::simulate_outputs(m, record, &inp, 0..end, Some(initial)).ok()?;
-        let mut r = Vec::with_capacity(end * measured.len());
-        for ((me, s), sc) in measured.iter().zip(&sim.outputs).zip(&scale) {
-            for t in 0..end {
-                r.push((s[t] - me[t]) * sc);
+        let mut r = Vec::new();
+        for (w, q, qd, from) in windows {
+            let sim = simulate::simulate_outputs(m, record, &inp, w.clone(), Some((q, qd))).ok()?;
+            for ((me, s), sc) in measured.iter().zip(&sim.outputs).zip(&scale) {
+                for t in w.clone().filter(|&t| t >= *from && split.is_fit(t)) {
+                    r.push((s[t - w.start] - me[t]) * sc);
+                }
             }
         }
         Some(r)
     };
-    let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let mut m = model.clone();
-    let start = residual_to(&m, fit_end)?;
-    // Correlation time of the start residual (samples): sets the window and the
+    let whole: Vec<Window> = vec![(0..len, on.initial.0.to_vec(), on.initial.1.to_vec(), 0)];
+    let start = residual_on(model, &whole)?;
+    // Correlation time of the start residual (samples): sets the budget and the
     // convergence test.
     let tau0 = equation::correlation_time_rows(&start, 1);
-    // The refinement simulates the start of the fitting part holding
-    // `REFINE_EFFECTIVE_SAMPLES` effectively independent samples of each output (all of it
-    // when shorter).
-    let end = fit_end.min((REFINE_EFFECTIVE_SAMPLES * tau0).ceil() as usize);
-    let residual = |m: &Model| residual_to(m, end);
-    let mut r = if end == fit_end {
-        start
+    let budget = REFINE_EFFECTIVE_SAMPLES * tau0;
+    let windows: Vec<Window> = if (fit_idx.len() as f64) <= budget {
+        whole
     } else {
-        start
-            .chunks(fit_end)
-            .flat_map(|c| c[..end].iter().copied())
+        let share = fit_idx.len() as f64 / len as f64;
+        let wl = ((budget / share / REFINE_WINDOWS as f64 * 1.25).ceil() as usize).min(len);
+        (0..REFINE_WINDOWS)
+            .map(|k| {
+                let s0 = k * (len - wl) / (REFINE_WINDOWS - 1);
+                let q: Vec<f64> = on.st.q.iter().map(|x| x[s0]).collect();
+                let qd: Vec<f64> = on.st.qd.iter().map(|x| x[s0]).collect();
+                let from = if s0 == 0 { 0 } else { s0 + wl / 5 };
+                (s0..s0 + wl, q, qd, from)
+            })
             .collect()
     };
+    let residual = |m: &Model| residual_on(m, &windows);
+    let mut r = residual(model)?;
+    let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+    let mut m = model.clone();
     let mut c = cost(&r);
     let mut lambda = 1e-3;
     let mut jac = DMatrix::<f64>::zeros(r.len(), p);

@@ -42,6 +42,11 @@ pub struct States {
     pub qdd: Vec<Vec<f64>>,
     /// Inputs in SI units (gain applied, no input effects), unfiltered.
     pub inputs_raw: Vec<Vec<f64>>,
+    /// Measured element forces (N, SI: the column over its gain): `(element, force)` per
+    /// force output. Each adds an equation `F_e(x_e, ẋ_e, z_e) = measured` per sample,
+    /// which fixes the scale of the element's coefficients and so, through the equations
+    /// of motion, the masses.
+    pub forces_measured: Vec<(usize, Vec<f64>)>,
     /// Cut-off of the filter (Hz).
     pub fc_hz: f64,
     /// Sample interval (s).
@@ -196,6 +201,24 @@ pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
                 .collect())
         })
         .collect::<Result<_>>()?;
+    let forces_measured = model
+        .outputs
+        .iter()
+        .filter_map(|o| match (&o.target, o.kind) {
+            (Target::Element(e), OutputKind::Force) => Some((*e, o)),
+            _ => None,
+        })
+        .map(|(e, o)| {
+            Ok((
+                e,
+                record
+                    .column(&o.column)?
+                    .iter()
+                    .map(|v| v / o.gain)
+                    .collect(),
+            ))
+        })
+        .collect::<Result<_>>()?;
     let decimation = ((fs / (5.0 * fc_hz)).floor() as usize).max(1);
     let edge = ((2.0 / (fc_hz * dt)).ceil() as usize).min(len / 20);
     let keep = (edge..len.saturating_sub(edge))
@@ -207,6 +230,7 @@ pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
         qd,
         qdd,
         inputs_raw,
+        forces_measured,
         fc_hz,
         dt,
         decimation,
@@ -228,6 +252,11 @@ impl States {
             qd: cut(&self.qd),
             qdd: cut(&self.qdd),
             inputs_raw: cut(&self.inputs_raw),
+            forces_measured: self
+                .forces_measured
+                .iter()
+                .map(|(e, f)| (*e, f[..len].to_vec()))
+                .collect(),
             fc_hz: self.fc_hz,
             dt: self.dt,
             decimation: self.decimation,
@@ -472,7 +501,8 @@ pub struct System {
     pub rhs: Vec<f64>,
     /// Record sample index of each row.
     pub sample: Vec<usize>,
-    /// DOF of each row.
+    /// Equation of each row: the DOF, or `n + k` for the `k`-th measured element force
+    /// ([`States::forces_measured`]).
     pub dof: Vec<usize>,
 }
 
@@ -601,10 +631,43 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
             (inp.kind == InputKind::Force).then(|| keyed(&[7, k[0], k[1]], &|| uv[..len].to_vec()))
         })
         .collect();
-    let rows = kept * n;
+    // Equations per kept sample: one per DOF, then one per measured element force.
+    let n_eq = n + st.forces_measured.len();
+    let rows = kept * n_eq;
     let mut columns = vec![vec![0.0; rows]; free.len()];
     let mut rhs = vec![0.0; rows];
     let mut acc = vec![0.0; kept];
+    for (k, (e, f)) in st.forces_measured.iter().enumerate() {
+        let (e, row) = (*e, n + k);
+        let measured = keyed(&[8, k as u64, e as u64], &|| f.clone());
+        let w = 1.0 / signal::rms(&measured).max(f64::MIN_POSITIVE);
+        let el = &model.elements[e];
+        acc.iter_mut()
+            .zip(measured.iter())
+            .for_each(|(a, y)| *a = *y);
+        for (c, y) in &elem[e] {
+            if !is_free(*c) {
+                let v = c.get(model);
+                acc.iter_mut().zip(y.iter()).for_each(|(a, y)| *a -= v * y);
+            }
+        }
+        if let (Some(p), Some(y)) = (el.law.lift_off, &liftoff[e]) {
+            acc.iter_mut().zip(y.iter()).for_each(|(a, y)| *a += p * y);
+        }
+        for (r, v) in acc.iter().enumerate() {
+            rhs[r * n_eq + row] = w * v;
+        }
+        for (ci, &c) in free.iter().enumerate() {
+            if c.element() != Some(e) {
+                continue;
+            }
+            if let Some((_, y)) = elem[e].iter().find(|(x, _)| *x == c) {
+                for (r, v) in y.iter().enumerate() {
+                    columns[ci][r * n_eq + row] = w * v;
+                }
+            }
+        }
+    }
     for i in 0..n {
         let w = weights[i];
         // Right-hand side.
@@ -640,7 +703,7 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
             }
         }
         for (r, v) in acc.iter().enumerate() {
-            rhs[r * n + i] = w * v;
+            rhs[r * n_eq + i] = w * v;
         }
         // Columns.
         for (ci, &c) in free.iter().enumerate() {
@@ -658,14 +721,14 @@ pub fn build(model: &Model, st: &States, free: &[Coef], weights: &[f64]) -> Syst
                 }
             };
             for (r, v) in y.iter().enumerate() {
-                columns[ci][r * n + i] = w * k * v;
+                columns[ci][r * n_eq + i] = w * k * v;
             }
         }
     }
     let mut sample = Vec::with_capacity(rows);
     let mut dof = Vec::with_capacity(rows);
     for &t in keep {
-        for i in 0..n {
+        for i in 0..n_eq {
             sample.push(t);
             dof.push(i);
         }

@@ -37,6 +37,7 @@ pub mod parallel;
 pub mod record;
 pub mod signal;
 pub mod simulate;
+pub mod split;
 
 pub use diagnose::{
     diagnose, diagnose_with_progress, Diagnosis, Gap, JsonReport, NamedEffect, Options,

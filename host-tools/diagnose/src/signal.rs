@@ -388,6 +388,27 @@ pub fn signal_band_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
     edge.min(nyq)
 }
 
+/// Standard deviation of the white measurement noise on `x` (sampled every `dt` s),
+/// estimated from the top of the band (0.35–0.5 of the sample rate, where oversampled
+/// mechanical records hold measurement noise only): for white noise of variance `σ²` the
+/// periodogram ordinates `|X_k|²` are exponential with mean `n σ²`, so their median is
+/// `n σ² ln 2`. Signal content in that band makes it an overestimate; 0 for fewer than 64
+/// samples.
+pub fn noise_std(x: &[f64], dt: f64) -> f64 {
+    let n = x.len();
+    if n < 64 {
+        return 0.0;
+    }
+    let m = mean(x);
+    let mut buf: Vec<Complex64> = x.iter().map(|v| Complex64::new(v - m, 0.0)).collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let half = n / 2;
+    let df = 1.0 / (n as f64 * dt);
+    let lo = (((0.35 / dt) / df) as usize).min(half);
+    let tail: Vec<f64> = buf[lo..=half].iter().map(|c| c.norm_sqr()).collect();
+    (quantile(&tail, 0.5) / (n as f64 * std::f64::consts::LN_2)).sqrt()
+}
+
 /// Integrated autocorrelation time `τ = 1 + 2 Σ ρ_k` (samples, >= 1) of a residual, the sum
 /// running until `ρ_k` first drops below 0.05 (at most `n/4` lags): `n / τ` is the number of
 /// effectively independent samples.
@@ -448,6 +469,33 @@ mod tests {
             let t = i as f64 * dt;
             assert!((d[i] - w * (w * t).cos()).abs() < 1e-4 * w);
             assert!((dd[i] + w * w * (w * t).sin()).abs() < 1e-4 * w * w);
+        }
+    }
+
+    #[test]
+    fn noise_std_of_a_slow_signal_with_white_noise() {
+        let mut s = 777u64;
+        let mut normal = || {
+            // Sum of 12 uniforms: unit variance, zero mean.
+            (0..12)
+                .map(|_| {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    s as f64 / u64::MAX as f64
+                })
+                .sum::<f64>()
+                - 6.0
+        };
+        let dt = 1e-3;
+        for sigma in [1e-4, 0.02] {
+            let x: Vec<f64> = (0..20_000)
+                .map(|i| {
+                    (2.0 * std::f64::consts::PI * 3.0 * i as f64 * dt).sin() + sigma * normal()
+                })
+                .collect();
+            let est = noise_std(&x, dt);
+            assert!((est / sigma - 1.0).abs() < 0.1, "{sigma}: {est}");
         }
     }
 

@@ -224,7 +224,7 @@ impl DiagnoseOutput {
         ));
         let factor = d.gap_before.nrmse / d.gap_after.nrmse;
         s.push_str(&format!(
-            "gap (NRMSE, validation part): {:.4} before -> {:.4} after ({factor:.2}x smaller)\n",
+            "gap (NRMSE, validation blocks): {:.4} before -> {:.4} after ({factor:.2}x smaller)\n",
             d.gap_before.nrmse, d.gap_after.nrmse
         ));
         if let Some(w) = d
@@ -254,7 +254,7 @@ impl DiagnoseOutput {
 
 /// Writes the plots into `dir`; returns their paths.
 ///
-/// - `residual.svg`: the residual over time on the validation part, model as given,
+/// - `residual.svg`: the residual over the whole record (fitting and validation blocks), model as given,
 ///   recalibrated and updated (simulated output minus measured, over the measured output's standard
 ///   deviation; for models not restrained on their own, the inverse-dynamics force residual
 ///   per DOF, N).
@@ -275,16 +275,19 @@ pub fn write_plots(d: &Diagnosis, record: &Record, dir: &Path) -> Result<Vec<Pat
     let st = equation::estimate_states(&d.original, record).map_err(|e| anyhow!("{e}"))?;
     let len = record.len();
     let time = |t: usize| record.t0 + t as f64 * record.dt;
-    // Residual over time on the validation part.
-    let mut plot = XyPlot::new("Residual on the validation part", "time [s]", "residual");
+    // Residual over the whole record.
+    let mut plot = XyPlot::new("Residual over the record", "time [s]", "residual");
     let initial: (Vec<f64>, Vec<f64>) = (
         st.q.iter().map(|q| q[0]).collect(),
         st.qd.iter().map(|q| q[0]).collect(),
     );
     let sims = if d.basis == GapBasis::Simulation {
+        // Driven as the diagnosis drives its simulations: logged inputs low-passed above
+        // their signal band.
+        let (driven, _) = mil_diagnose::diagnose::prefilter_inputs(&d.original, record);
         let sim = |m: &Model| {
-            let inputs = prepare_inputs(m, record).ok()?;
-            simulate(m, record, &inputs, 0..len, Some((&initial.0, &initial.1)))
+            let inputs = prepare_inputs(m, &driven).ok()?;
+            simulate(m, &driven, &inputs, 0..len, Some((&initial.0, &initial.1)))
                 .ok()
                 .map(|s| s.outputs)
         };
@@ -296,7 +299,7 @@ pub fn write_plots(d: &Diagnosis, record: &Record, dir: &Path) -> Result<Vec<Pat
     } else {
         None
     };
-    let step = ((len - d.fit_end) / MAX_POINTS).max(1);
+    let step = (len / MAX_POINTS).max(1);
     if let Some((before, recal, after)) = &sims {
         plot.y_label = "(simulated - measured) / std(measured)".into();
         for (label, sim, style) in [
@@ -309,8 +312,8 @@ pub fn write_plots(d: &Diagnosis, record: &Record, dir: &Path) -> Result<Vec<Pat
                 let Ok(y) = record.column(&out.column) else {
                     continue;
                 };
-                let sd = mil_diagnose::signal::std(&y[d.fit_end..]).max(1e-300);
-                let points = (d.fit_end..len)
+                let sd = mil_diagnose::signal::std(y).max(1e-300);
+                let points = (0..len)
                     .step_by(step)
                     .map(|t| (time(t), (sim[o][t] - y[t]) / sd))
                     .collect();
@@ -322,7 +325,7 @@ pub fn write_plots(d: &Diagnosis, record: &Record, dir: &Path) -> Result<Vec<Pat
             }
         }
     } else {
-        plot.title = "Inverse-dynamics force residual on the validation part".into();
+        plot.title = "Inverse-dynamics force residual over the record".into();
         plot.y_label = "force the model misses [N]".into();
         let ones = vec![1.0; d.original.n()];
         for (label, m) in [
@@ -332,9 +335,7 @@ pub fn write_plots(d: &Diagnosis, record: &Record, dir: &Path) -> Result<Vec<Pat
         ] {
             let sys = equation::build(m, &st, &[], &ones);
             for (i, dof) in d.original.dofs.iter().enumerate().take(3) {
-                let rows: Vec<usize> = (0..sys.rhs.len())
-                    .filter(|&r| sys.dof[r] == i && sys.sample[r] >= d.fit_end)
-                    .collect();
+                let rows: Vec<usize> = (0..sys.rhs.len()).filter(|&r| sys.dof[r] == i).collect();
                 let k = (rows.len() / MAX_POINTS).max(1);
                 let points = rows
                     .iter()

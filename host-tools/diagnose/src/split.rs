@@ -1,0 +1,157 @@
+//! The split of a record into fitting and validation samples: interleaved blocks.
+//!
+//! The record is cut into blocks of equal length; every block whose index `b` satisfies
+//! `⌊(b + 1) f⌋ > ⌊b f⌋` (with `f` the validation fraction) is a validation block, the
+//! others are fitting blocks. So both parts span the whole record: its frequency content
+//! (a sweep's start and end), its amplitudes and its operating regions, whatever the
+//! record's order. A guard of samples on each side of every block boundary belongs to
+//! neither part, so that a filtered regression row does not carry a validation sample into
+//! the fit (or the reverse).
+//!
+//! ```
+//! use mil_diagnose::split::Split;
+//! let s = Split::new(10_000, 0.3, 100, 10);
+//! let val = (0..10_000).filter(|&t| s.is_validation(t)).count();
+//! let fit = (0..10_000).filter(|&t| s.is_fit(t)).count();
+//! assert!((val as f64 / (val + fit) as f64 - 0.3).abs() < 0.05);
+//! // Validation samples lie in the first and in the last fifth of the record alike.
+//! assert!((0..2_000).any(|t| s.is_validation(t)));
+//! assert!((8_000..10_000).any(|t| s.is_validation(t)));
+//! ```
+
+use std::ops::Range;
+
+/// Blocks per record the split aims for: 40, so that a third of them (the validation part)
+/// is a dozen blocks spread over the record.
+pub const BLOCKS: usize = 40;
+
+/// Interleaved fitting and validation blocks (see the module documentation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Split {
+    /// Samples in the record.
+    pub len: usize,
+    /// Samples per block.
+    pub block: usize,
+    /// Validation fraction `f` (0, 1).
+    pub fraction: f64,
+    /// Samples on each side of a block boundary that belong to neither part.
+    pub guard: usize,
+}
+
+impl Split {
+    /// A split of `len` samples with validation fraction `fraction`, blocks of at least
+    /// `min_block` samples ([`BLOCKS`] blocks when the record is long enough) and `guard`
+    /// samples on each side of a boundary left out (at most a quarter of a block).
+    pub fn new(len: usize, fraction: f64, min_block: usize, guard: usize) -> Self {
+        let block = (len / BLOCKS).max(min_block).max(1);
+        Self {
+            len,
+            block,
+            fraction,
+            guard: guard.min(block / 4),
+        }
+    }
+
+    /// Whether block `b` is a validation block.
+    fn block_is_validation(&self, b: usize) -> bool {
+        let f = self.fraction;
+        ((b + 1) as f64 * f).floor() > (b as f64 * f).floor()
+    }
+
+    /// Whether sample `t` is within the guard of a boundary between parts.
+    fn guarded(&self, t: usize) -> bool {
+        if self.guard == 0 {
+            return false;
+        }
+        let b = t / self.block;
+        let off = t % self.block;
+        let here = self.block_is_validation(b);
+        (off < self.guard && b > 0 && self.block_is_validation(b - 1) != here)
+            || (off + self.guard >= self.block
+                && (b + 1) * self.block < self.len
+                && self.block_is_validation(b + 1) != here)
+    }
+
+    /// Whether sample `t` is a validation sample.
+    pub fn is_validation(&self, t: usize) -> bool {
+        t < self.len && self.block_is_validation(t / self.block) && !self.guarded(t)
+    }
+
+    /// Whether sample `t` is a fitting sample.
+    pub fn is_fit(&self, t: usize) -> bool {
+        t < self.len && !self.block_is_validation(t / self.block) && !self.guarded(t)
+    }
+
+    /// The validation samples as ranges, in order.
+    pub fn validation_ranges(&self) -> Vec<Range<usize>> {
+        self.ranges(|s, t| s.is_validation(t))
+    }
+
+    /// The fitting samples as ranges, in order.
+    pub fn fit_ranges(&self) -> Vec<Range<usize>> {
+        self.ranges(|s, t| s.is_fit(t))
+    }
+
+    fn ranges(&self, keep: impl Fn(&Self, usize) -> bool) -> Vec<Range<usize>> {
+        let mut out: Vec<Range<usize>> = Vec::new();
+        for t in 0..self.len {
+            if keep(self, t) {
+                match out.last_mut() {
+                    Some(r) if r.end == t => r.end = t + 1,
+                    _ => out.push(t..t + 1),
+                }
+            }
+        }
+        out
+    }
+
+    /// Index of the block holding sample `t`.
+    pub fn block_of(&self, t: usize) -> usize {
+        t / self.block
+    }
+
+    /// Number of validation samples.
+    pub fn validation_len(&self) -> usize {
+        self.validation_ranges().iter().map(|r| r.len()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parts_are_disjoint_spread_and_of_the_asked_share() {
+        for (len, f) in [(20_000, 0.3), (60_000, 0.25), (3_000, 0.5), (123_457, 0.3)] {
+            let s = Split::new(len, f, 200, 20);
+            let val = s.validation_len();
+            let fit: usize = s.fit_ranges().iter().map(|r| r.len()).sum();
+            assert!(val > 0 && fit > 0);
+            assert!(val + fit <= len);
+            assert!((0..len).all(|t| !(s.is_fit(t) && s.is_validation(t))));
+            let share = val as f64 / (val + fit) as f64;
+            assert!((share - f).abs() < 0.1, "{len} {f}: {share}");
+            // Each tenth of the record holds fitting samples, and each half validation ones.
+            for k in 0..10 {
+                assert!((k * len / 10..(k + 1) * len / 10).any(|t| s.is_fit(t)));
+            }
+            assert!((0..len / 2).any(|t| s.is_validation(t)));
+            assert!((len / 2..len).any(|t| s.is_validation(t)));
+        }
+    }
+
+    #[test]
+    fn guard_separates_the_parts() {
+        let s = Split::new(10_000, 0.3, 250, 10);
+        for t in 1..10_000 {
+            // A fitting sample never lies within the guard of a validation sample.
+            if s.is_fit(t) {
+                let lo = t.saturating_sub(10);
+                assert!(
+                    (lo..(t + 10).min(10_000)).all(|u| !s.is_validation(u)),
+                    "{t}"
+                );
+            }
+        }
+    }
+}
