@@ -643,8 +643,9 @@ struct Candidate {
 pub const GRID_EFFECTIVE_SAMPLES: f64 = 2000.0;
 
 /// Effectively independent samples of each output (samples over the output-error
-/// residual's correlation time) that the output-error refinement simulates: 2000 (all of
-/// the fitting part when it holds fewer). A compute budget: the refinement starts from
+/// residual's correlation time) that the output-error refinement scores: 2000 (every
+/// fitting block when they hold fewer; else [`REFINE_WINDOWS`] windows spread over the
+/// record). A compute budget: the refinement starts from
 /// the equation-error estimates of the whole fitting part, removes their
 /// errors-in-variables bias and confirms each effect in simulation, for which the
 /// precision of 2000 independent samples per output is ample; its cost then stops
