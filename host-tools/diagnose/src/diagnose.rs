@@ -738,7 +738,10 @@ fn fit_candidate(
 ) -> Option<(Fit, usize)> {
     let st = ctx.st;
     let model = &base.model;
+    // Coefficients the base held at a bound are free again: with the candidate effect the
+    // data may put them back in range (an input delay read as negative damping).
     let mut free = base.free.clone();
+    free.extend(base.bounded.iter().copied());
     let (u, ud) = equation::model_inputs(model, st);
     let sig = equation::element_signals(model, st, &u, &ud);
     // Quantiles over the whole record (less the filter transients): the grid values do not
@@ -801,6 +804,7 @@ fn fit_candidate(
                 }
             }
             let mut free_r = base.free.clone();
+            free_r.extend(base.bounded.iter().copied());
             free_r.push(Coef::RebK(e));
             let best_b = best_grid(ctx, grid, variants, &free);
             let best_r = best_grid(ctx, grid, reb, &free_r);
