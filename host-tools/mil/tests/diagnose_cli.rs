@@ -170,7 +170,10 @@ fn emps_record_names_coulomb_friction() {
         stdout.contains("named: coulomb_friction on \"guide\""),
         "{stdout}"
     );
-    assert!(stdout.contains("gap (NRMSE, validation blocks):"), "{stdout}");
+    assert!(
+        stdout.contains("gap (NRMSE, validation blocks):"),
+        "{stdout}"
+    );
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     let fc = report["named_effects"][0]["parameters"]["force_n"]
