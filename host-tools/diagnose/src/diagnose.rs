@@ -1062,13 +1062,7 @@ impl<'a> Simulated<'a> {
         let val_idx: Vec<usize> = (0..record.len())
             .filter(|&t| split.is_validation(t))
             .collect();
-        let scale: Vec<f64> = measured
-            .iter()
-            .map(|m| {
-                let v: Vec<f64> = val_idx.iter().map(|&t| m[t]).collect();
-                1.0 / signal::std(&v).max(1e-300)
-            })
-            .collect();
+        let scale = inverse_spreads(measured, &val_idx);
         let noise_sse = measured
             .iter()
             .zip(&scale)
@@ -1374,7 +1368,7 @@ pub fn diagnose_with_progress(
         // holds `GRID_EFFECTIVE_SAMPLES` effectively independent rows and still spans the
         // record; the best grid points are then fitted on every fitting block.
         let grid_ctx = {
-            let needed = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0) / model.n() as f64;
+            let needed = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0);
             let thin = ((fit_rows as f64 / needed).floor() as usize).min(MAX_THIN);
             (thin >= 2).then(|| Context {
                 st: &st,
@@ -1821,6 +1815,17 @@ fn parameter_std(
         .collect()
 }
 
+/// Per measured output: one over its spread at the samples `idx` (the residuals' scale).
+fn inverse_spreads(measured: &[&[f64]], idx: &[usize]) -> Vec<f64> {
+    measured
+        .iter()
+        .map(|m| {
+            let v: Vec<f64> = idx.iter().map(|&t| m[t]).collect();
+            1.0 / signal::std(&v).max(1e-300)
+        })
+        .collect()
+}
+
 /// What the output-error refinement fits on: the record, its measured outputs, the split and
 /// the estimated states (initial states of the simulated windows).
 struct RefineOn<'a> {
@@ -1857,13 +1862,7 @@ fn refine_output_error(
     params.extend(nonlinear_params(model));
     let p = params.len();
     let fit_idx: Vec<usize> = (0..len).filter(|&t| split.is_fit(t)).collect();
-    let scale: Vec<f64> = measured
-        .iter()
-        .map(|m| {
-            let v: Vec<f64> = fit_idx.iter().map(|&t| m[t]).collect();
-            1.0 / signal::std(&v).max(1e-300)
-        })
-        .collect();
+    let scale = inverse_spreads(measured, &fit_idx);
     // Simulated windows `(range, initial positions, velocities, first scored sample)`.
     type Window = (std::ops::Range<usize>, Vec<f64>, Vec<f64>, usize);
     let residual_on = |m: &Model, windows: &[Window]| -> Option<Vec<f64>> {

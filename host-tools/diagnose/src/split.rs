@@ -19,8 +19,6 @@
 //! assert!((8_000..10_000).any(|t| s.is_validation(t)));
 //! ```
 
-use std::ops::Range;
-
 /// Blocks per record the split aims for: 40, so that a third of them (the validation part)
 /// is a dozen blocks spread over the record.
 pub const BLOCKS: usize = 40;
@@ -82,37 +80,9 @@ impl Split {
         t < self.len && !self.block_is_validation(t / self.block) && !self.guarded(t)
     }
 
-    /// The validation samples as ranges, in order.
-    pub fn validation_ranges(&self) -> Vec<Range<usize>> {
-        self.ranges(|s, t| s.is_validation(t))
-    }
-
-    /// The fitting samples as ranges, in order.
-    pub fn fit_ranges(&self) -> Vec<Range<usize>> {
-        self.ranges(|s, t| s.is_fit(t))
-    }
-
-    fn ranges(&self, keep: impl Fn(&Self, usize) -> bool) -> Vec<Range<usize>> {
-        let mut out: Vec<Range<usize>> = Vec::new();
-        for t in 0..self.len {
-            if keep(self, t) {
-                match out.last_mut() {
-                    Some(r) if r.end == t => r.end = t + 1,
-                    _ => out.push(t..t + 1),
-                }
-            }
-        }
-        out
-    }
-
     /// Index of the block holding sample `t`.
     pub fn block_of(&self, t: usize) -> usize {
         t / self.block
-    }
-
-    /// Number of validation samples.
-    pub fn validation_len(&self) -> usize {
-        self.validation_ranges().iter().map(|r| r.len()).sum()
     }
 }
 
@@ -124,8 +94,8 @@ mod tests {
     fn parts_are_disjoint_spread_and_of_the_asked_share() {
         for (len, f) in [(20_000, 0.3), (60_000, 0.25), (3_000, 0.5), (123_457, 0.3)] {
             let s = Split::new(len, f, 200, 20);
-            let val = s.validation_len();
-            let fit: usize = s.fit_ranges().iter().map(|r| r.len()).sum();
+            let val = (0..len).filter(|&t| s.is_validation(t)).count();
+            let fit = (0..len).filter(|&t| s.is_fit(t)).count();
             assert!(val > 0 && fit > 0);
             assert!(val + fit <= len);
             assert!((0..len).all(|t| !(s.is_fit(t) && s.is_validation(t))));
