@@ -27,6 +27,10 @@
 //!    control-step event, with timestamps: five DTOs per step): the control step's
 //!    instructions with DAQ running, and what the receive task spends after the demand is
 //!    queued (the measurement block store, plus the copy of it queued for the DAQ task).
+//!    The host waits for each step's five DTOs before it sends the next measurement, as the
+//!    bus would pace it: QEMU's USART spends host time per byte and none of virtual time, so
+//!    an unpaced host outruns the emulated link and the count of dropped DAQ samples would
+//!    measure the host's load, not the firmware. Every DTO must arrive and none be dropped.
 //!
 //! Prints the budget table and exits non-zero if a check failed or a control step took more
 //! than 1000 instructions, with or without DAQ.
@@ -265,6 +269,10 @@ fn lockstep(
     }
     if daq {
         start_daq(board.transport_mut())?;
+        // The board sends the step's DAQ packets right after its demand; QEMU's USART costs
+        // host time per byte, not virtual time, so a host that sends the next measurement at
+        // once outruns the link (on the rig the bus paces it). Wait for them, as a bus would.
+        board = board.with_followers(DAQ_SIGNALS.len() + 1);
     }
     let duration = samples as f64 / FS;
     let road = vec![band_limited_noise(0.5, 40.0, duration, FS, 0.5e-3, true, 1)];
@@ -313,6 +321,17 @@ fn lockstep(
         failures.push(format!(
             "{running} of {} samples Running without fault (expected {samples})",
             h.len()
+        ));
+    }
+    let expected_packets = if daq {
+        h.len() * (DAQ_SIGNALS.len() + 1)
+    } else {
+        0
+    };
+    if board.undecodable() != expected_packets as u64 {
+        failures.push(format!(
+            "{} DAQ packets or other frames received, expected {expected_packets}",
+            board.undecodable()
         ));
     }
     if !board.stray_demands().is_empty() {

@@ -56,6 +56,7 @@ pub struct RemoteBoard<T: Transport> {
     acks: Vec<CommandAck>,
     stray_demands: Vec<mil_frames::Demand>,
     undecodable: u64,
+    followers: usize,
 }
 
 fn mode_of(m: mil_frames::Mode) -> Mode {
@@ -87,12 +88,23 @@ impl<T: Transport> RemoteBoard<T> {
             acks: Vec::new(),
             stray_demands: Vec::new(),
             undecodable: 0,
+            followers: 0,
         })
     }
 
     /// Sets how long to wait for a demand or an acknowledgement.
     pub fn with_timeout(mut self, timeout: Duration) -> Self {
         self.timeout = timeout;
+        self
+    }
+
+    /// After each step's demand, also waits for `n` frames that are not MiL messages (the
+    /// step's XCP DAQ packets, which the board sends right after the demand) before the next
+    /// measurement goes out: the host then paces the run as a bus would, instead of sending
+    /// measurements faster than the emulated board's link can carry the step's traffic.
+    /// They are counted in [`RemoteBoard::undecodable`].
+    pub fn with_followers(mut self, n: usize) -> Self {
+        self.followers = n;
         self
     }
 
@@ -178,6 +190,36 @@ impl<T: Transport> RemoteBoard<T> {
                 Ok(_) | Err(_) => self.undecodable += 1,
             }
         }
+    }
+
+    /// Receives until [`RemoteBoard::with_followers`] non-MiL frames arrived (MiL messages
+    /// met meanwhile are recorded as in `step`).
+    fn await_followers(&mut self) -> Result<(), String> {
+        let deadline = Instant::now() + self.timeout;
+        let mut seen = 0;
+        while seen < self.followers {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let Some(frame) = self
+                .transport
+                .recv(left)
+                .map_err(|e| format!("receive: {e}"))?
+            else {
+                return Err(format!(
+                    "{seen} of the {} frames that follow a demand arrived within {:?}",
+                    self.followers, self.timeout
+                ));
+            };
+            match decode(&LAYOUT, &frame) {
+                Ok(Message::Demand(d)) => self.stray_demands.push(d),
+                Ok(Message::Status(s)) => self.statuses.push(s),
+                Ok(Message::CommandAck(a)) => self.acks.push(a),
+                Ok(_) | Err(_) => {
+                    self.undecodable += 1;
+                    seen += 1;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Sends a Command frame and waits for the CommandAck echoing its command number.
@@ -332,6 +374,7 @@ impl<T: Transport> mil_rig::harness::Board<1> for RemoteBoard<T> {
                         rate_limited: u8::from(d.flags.rate_limited),
                         invalid_input: 0,
                     };
+                    self.await_followers()?;
                     return Ok([d.demand_n]);
                 }
                 Ok(Message::Demand(d)) => self.stray_demands.push(d),
