@@ -1214,6 +1214,67 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
     })
 }
 
+/// Most samples the diagnosis works on (it holds about 0.7 kB per sample: filtered
+/// regressors, simulations, states): longer records are averaged down ([`within_budget`]).
+pub const MAX_SAMPLES: usize = 1_000_000;
+
+/// The record's highest signal frequency must stay below this fraction of the rate a long
+/// record is averaged down to (block means keep 99.6 % of the amplitude there).
+pub const DECIMATED_BAND_FRACTION: f64 = 0.05;
+
+/// The record the diagnosis works on: `record` itself when it has at most [`MAX_SAMPLES`]
+/// samples; otherwise its block means ([`Record::block_mean`]) over the fewest samples that
+/// bring it within the budget, if its signals' band (the highest band edge of the model's
+/// columns, [`signal::signal_band_edge_hz`]) stays below [`DECIMATED_BAND_FRACTION`] of
+/// the new rate, with a line that says so.
+///
+/// # Errors
+/// The record is too long and its band does not allow averaging it down enough: one line
+/// with the figures and the longest record that would do.
+pub fn within_budget<'a>(
+    model: &Model,
+    record: &'a Record,
+) -> Result<(std::borrow::Cow<'a, Record>, Option<String>)> {
+    let len = record.len();
+    if len <= MAX_SAMPLES {
+        return Ok((std::borrow::Cow::Borrowed(record), None));
+    }
+    let fs = 1.0 / record.dt;
+    let mut edge = 0.0_f64;
+    for c in model
+        .outputs
+        .iter()
+        .map(|o| &o.column)
+        .chain(model.inputs.iter().map(|i| &i.column))
+    {
+        edge = edge.max(signal::signal_band_edge_hz(
+            record.column(c)?,
+            record.dt,
+            equation::SNR,
+        ));
+    }
+    let needed = len.div_ceil(MAX_SAMPLES);
+    let allowed = (DECIMATED_BAND_FRACTION * fs / edge).floor() as usize;
+    if allowed < needed {
+        let rate = fs / allowed.max(1) as f64;
+        return Err(Error::Record(format!(
+            "{len} samples at {fs:.0} Hz: the diagnosis works on at most {MAX_SAMPLES}, and \
+             the signals reach {edge:.1} Hz, so the record can be averaged down to {rate:.0} Hz \
+             only ({} samples): give at most {:.0} s of it",
+            len / allowed.max(1),
+            MAX_SAMPLES as f64 / rate
+        )));
+    }
+    let reduced = record.block_mean(needed);
+    let line = format!(
+        "record of {len} samples at {fs:.0} Hz averaged over blocks of {needed} to {} samples \
+         at {:.1} Hz (its signals reach {edge:.1} Hz)",
+        reduced.len(),
+        fs / needed as f64
+    );
+    Ok((std::borrow::Cow::Owned(reduced), Some(line)))
+}
+
 /// [`diagnose`], reporting its progress to `progress(fraction, message)` instead of stderr
 /// (`options.progress` is ignored): `fraction` is a rough share of the work done, from 0 to
 /// 1, never decreasing (by phase: state estimate, recalibration, candidates of each
@@ -1234,13 +1295,18 @@ pub fn diagnose_with_progress(
             options.validation_fraction
         )));
     }
-    let len = record.len();
     for o in &model.outputs {
         record.column(&o.column)?;
     }
     for i in &model.inputs {
         record.column(&i.column)?;
     }
+    let (record, reduced) = within_budget(model, record)?;
+    if let Some(m) = &reduced {
+        log(0.0, m);
+    }
+    let record = record.as_ref();
+    let len = record.len();
     // The equation error filters every regressor alike (inputs included); the simulations
     // are driven by the inputs low-passed at their own band edges.
     let st = equation::estimate_states(model, record)?;
@@ -1302,6 +1368,7 @@ pub fn diagnose_with_progress(
         .iter()
         .map(|(c, fc)| format!("input column {c:?} low-passed at {fc:.1} Hz (an octave above its signal band edge)"))
         .collect();
+    notes.extend(reduced);
     for c in &recal_fit.bounded {
         notes.push(format!(
             "{}: the record puts it outside its physical range; held at {:.6e} (bound active)",
@@ -1998,4 +2065,64 @@ fn refine_output_error(
         .map(|inv| DMatrix::from_fn(p, p, |a, b| inv[(a, b)] * d[a] * d[b] * sigma2 * tau))
         .unwrap_or_else(|_| DMatrix::zeros(p, p));
     Some((m, (params, cov)))
+}
+
+#[cfg(test)]
+mod budget_tests {
+    use super::*;
+
+    fn oscillator() -> Model {
+        Model::from_toml(include_str!("../examples/oscillator.toml")).expect("model")
+    }
+
+    /// `len` samples at `fs`: a force and a displacement that are sines at 2 Hz and `top`
+    /// Hz plus 1 % of white noise.
+    fn record(len: usize, fs: f64, top: f64) -> Record {
+        let noise = 0.01;
+        let mut s = 11u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let t: Vec<f64> = (0..len).map(|i| i as f64 / fs).collect();
+        let sine = |t: &f64| {
+            (std::f64::consts::TAU * 2.0 * t).sin() + 0.3 * (std::f64::consts::TAU * top * t).sin()
+        };
+        let f: Vec<f64> = t.iter().map(|t| 10.0 * sine(t) + noise * rnd()).collect();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|t| 1e-3 * sine(t) + 1e-4 * noise * rnd())
+            .collect();
+        Record::new(&t, vec!["force".into(), "x".into()], vec![f, x]).expect("record")
+    }
+
+    #[test]
+    fn a_record_within_the_budget_is_used_as_it_is() {
+        let rec = record(5000, 1000.0, 5.0);
+        let (r, line) = within_budget(&oscillator(), &rec).expect("fits");
+        assert!(matches!(r, std::borrow::Cow::Borrowed(_)) && line.is_none());
+    }
+
+    #[test]
+    fn a_long_oversampled_record_is_averaged_down_and_a_broadband_one_refused() {
+        let len = 2 * MAX_SAMPLES + 10;
+        // Up to 20 Hz at 10 kHz: averaged over blocks of 3 (the fewest that fit), 3.3 kHz.
+        let rec = record(len, 10_000.0, 20.0);
+        let (r, line) = within_budget(&oscillator(), &rec).expect("averaged down");
+        assert!(r.len() <= MAX_SAMPLES && r.len() == len / 3, "{}", r.len());
+        let line = line.expect("a note");
+        assert!(line.contains("blocks of 3"), "{line}");
+        // Up to 150 Hz at 1 kHz: averaging would blur it.
+        let rec = record(len, 1000.0, 150.0);
+        let err = within_budget(&oscillator(), &rec)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            err.contains(&format!("at most {MAX_SAMPLES}")) && err.contains("give at most"),
+            "{err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
 }

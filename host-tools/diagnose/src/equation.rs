@@ -1,6 +1,7 @@
 //! The equation-error (inverse-dynamics) formulation on measured states.
 //!
-//! With every DOF's position measured, the states `q`, `q̇`, `q̈` are estimated by a
+//! With every DOF's position measured (by displacement outputs, or for the DOFs they leave
+//! open by accelerometers, [`crate::accelerometer`]), the states `q`, `q̇`, `q̈` are estimated by a
 //! zero-phase low-pass `F` (fourth-order Butterworth, forward-backward) and five-point
 //! differences. Each DOF's equation of motion
 //!
@@ -23,7 +24,7 @@ use crate::effects::BoucWen;
 use crate::model::{InputKind, Model, OutputKind, Target};
 use crate::record::Record;
 use crate::signal;
-use crate::{Error, Result};
+use crate::Result;
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
@@ -135,46 +136,39 @@ pub fn undetermined_dofs(model: &Model) -> Vec<String> {
         .collect()
 }
 
-/// Estimates the states from the displacement outputs (see the module documentation).
+/// Estimates the states from the displacement outputs (see the module documentation), and
+/// from accelerometers for the DOFs the displacements leave open ([`crate::accelerometer`]).
 ///
 /// # Errors
-/// The displacement outputs do not determine every DOF, or a column is missing.
+/// The displacement and acceleration outputs do not determine every DOF, or a column is
+/// missing.
 pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
-    let (pinv, idx) = displacement_map(model).ok_or_else(|| {
-        let missing = undetermined_dofs(model);
-        Error::Diagnose(format!(
-            "the diagnosis estimates every DOF's position, velocity and acceleration from the \
-             displacement outputs, and they do not determine the position of {}: add a \
-             measured displacement of {} (an [[output]] with kind = \"displacement\")",
-            if missing.is_empty() {
-                "every DOF".to_string()
-            } else {
-                missing
-                    .iter()
-                    .map(|d| format!("`{d}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            },
-            if missing.len() == 1 { "it" } else { "each" }
-        ))
-    })?;
     let n = model.n();
     let len = record.len();
     let dt = record.dt;
-    let meas: Vec<&[f64]> = idx
-        .iter()
-        .map(|&i| record.column(&model.outputs[i].column))
-        .collect::<Result<_>>()?;
-    let mut q = vec![vec![0.0; len]; n];
-    for t in 0..len {
-        for (i, qi) in q.iter_mut().enumerate() {
-            qi[t] = meas
+    let q = match displacement_map(model) {
+        Some((pinv, idx)) => {
+            let meas: Vec<&[f64]> = idx
                 .iter()
-                .enumerate()
-                .map(|(r, m)| pinv[(i, r)] * m[t])
-                .sum();
+                .map(|&i| record.column(&model.outputs[i].column))
+                .collect::<Result<_>>()?;
+            let mut q = vec![vec![0.0; len]; n];
+            for t in 0..len {
+                for (i, qi) in q.iter_mut().enumerate() {
+                    qi[t] = meas
+                        .iter()
+                        .enumerate()
+                        .map(|(r, m)| pinv[(i, r)] * m[t])
+                        .sum();
+                }
+            }
+            q
         }
-    }
+        None => {
+            let open = undetermined_dofs(model);
+            crate::accelerometer::positions(model, record, &open)?
+        }
+    };
     let edge = q
         .iter()
         .map(|qi| signal::signal_band_edge_hz(qi, dt, SNR))
@@ -1086,12 +1080,12 @@ mod tests {
         let model = Model::from_toml(text).expect("tyre.toml");
         assert!(undetermined_dofs(&model).is_empty());
         assert!(displacement_map(&model).is_some());
-        // The hub measured by an accelerometer only: its position is not determined.
+        // The hub's velocity measured only: its position is not determined (an
+        // accelerometer would do, see `accelerometer`; a velocity is not used).
         let hub = "column = \"hub\"\nkind = \"displacement\"";
         assert!(text.contains(hub));
-        let model =
-            Model::from_toml(&text.replace(hub, "column = \"hub\"\nkind = \"acceleration\""))
-                .expect("model");
+        let model = Model::from_toml(&text.replace(hub, "column = \"hub\"\nkind = \"velocity\""))
+            .expect("model");
         assert_eq!(undetermined_dofs(&model), ["x_u"]);
         let t: Vec<f64> = (0..100).map(|i| f64::from(i) * 1e-3).collect();
         let cols = ["road", "body", "hub"];
@@ -1106,6 +1100,7 @@ mod tests {
         };
         let err = err.to_string();
         assert!(err.contains("`x_u`") && !err.contains("`x_s`"), "{err}");
+        assert!(err.contains("displacement or acceleration"), "{err}");
     }
 
     #[test]

@@ -13,21 +13,30 @@
 //!   linear in the linear parameters and in most effects' parameters.
 //! - [`diagnose()`]: recalibration, candidate effects, selection by a validation criterion,
 //!   output-error refinement, the evidence and the report ([`Diagnosis`], [`JsonReport`]).
+//! - [`accelerometer`]: DOF positions from accelerometers where displacements leave them
+//!   open.
 //! - [`signal`]: filters, differentiation, spectra, error figures.
 //!
-//! What a record must hold: every input's column, and displacement outputs that determine
-//! every DOF's position (one per DOF, or combinations such as points that together fix
-//! them), because recalibration and candidate selection estimate each DOF's position,
-//! velocity and acceleration from them ([`equation`]). That is what a rig measures (the
-//! actuators' LVDTs, laser or string-pot displacements); a DOF seen only by an
-//! accelerometer or a load cell is refused with an error that names it. Velocity,
-//! acceleration and force outputs are compared too, in the gap and the output-error
-//! refinement.
+//! What a record must hold: every input's column, and motion outputs that determine every
+//! DOF's position, because recalibration and candidate selection estimate each DOF's
+//! position, velocity and acceleration from them ([`equation`]). Displacement outputs (one
+//! per DOF, or combinations such as points that together fix them) are what a rig measures
+//! (the actuators' LVDTs, laser or string-pot displacements). A DOF they leave open may be
+//! seen by an accelerometer instead (the body of a quarter car on a hub-driven rig): its
+//! motion above the accelerometer's low band edge comes from the acceleration, below it
+//! from the model's balance with the measured DOFs and inputs ([`accelerometer`]); a DOF no
+//! spring holds (its static position unfixed), or seen by nothing, is refused with an error
+//! that names it and says what to measure. Velocity, acceleration and force outputs are
+//! compared too, in the gap and the output-error refinement, and a measured element force
+//! adds its own equations (it fixes the masses' scale). Records longer than
+//! [`diagnose::MAX_SAMPLES`] are averaged down in blocks when their band allows, refused
+//! with one line otherwise ([`diagnose::within_budget`]).
 //!
 //! SI units throughout. Sign convention of an element (as in `mil-rig`): its compression
 //! `x = pos(lower) − pos(upper)` (m) is positive when its ends approach, `v = dx/dt`, and its
 //! force `F` (N) pushes the ends apart (positive in compression).
 
+pub mod accelerometer;
 pub mod diagnose;
 pub mod effects;
 pub mod equation;

@@ -388,6 +388,43 @@ pub fn signal_band_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
     edge.min(nyq)
 }
 
+/// Lowest frequency (Hz) from which the mean-removed signal stands clearly above its noise
+/// floor: the lower edge of the lowest 1/6-octave band whose mean periodogram exceeds
+/// `snr` times the noise floor (as in [`signal_band_edge_hz`]). Returns the Nyquist
+/// frequency when no band does, and two frequency bins for records too short to tell.
+pub fn signal_low_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
+    let n = x.len();
+    let nyq = 0.5 / dt;
+    let df = 1.0 / (n.max(1) as f64 * dt);
+    if n < 64 {
+        return 2.0 * df;
+    }
+    let m = mean(x);
+    let mut buf: Vec<Complex64> = x.iter().map(|v| Complex64::new(v - m, 0.0)).collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let half = n / 2;
+    let power: Vec<f64> = buf[..=half].iter().map(|c| c.norm_sqr()).collect();
+    let lo = ((0.35 / dt) / df) as usize;
+    let floor = quantile(&power[lo.min(half)..=half], 0.5);
+    if floor <= 0.0 {
+        return 2.0 * df;
+    }
+    let ratio = 2f64.powf(1.0 / 6.0);
+    let mut f = 2.0 * df;
+    while f < 0.35 / dt {
+        let (a, b) = (
+            (f / df) as usize,
+            ((f * ratio / df) as usize).max((f / df) as usize + 1),
+        );
+        let band = &power[a.min(half)..b.min(half + 1)];
+        if !band.is_empty() && mean(band) > snr * floor {
+            return f;
+        }
+        f *= ratio;
+    }
+    nyq
+}
+
 /// Standard deviation of the white measurement noise on `x` (sampled every `dt` s),
 /// estimated from the top of the band (0.35–0.5 of the sample rate, where oversampled
 /// mechanical records hold measurement noise only): for white noise of variance `σ²` the

@@ -68,13 +68,19 @@ pub fn run_diagnose(
     let model = Model::read(&request.model).map_err(|e| anyhow!("{e}"))?;
     let record = Record::read(&request.data).map_err(|e| anyhow!("{e}"))?;
     check_columns(&model, &record, &request.data)?;
-    let diagnosis =
-        mil_diagnose::diagnose_with_progress(&model, &record, &Options::default(), progress)
+    // A record past the diagnosis' sample budget is averaged down (or refused) once here,
+    // so that the plots use the record the diagnosis used.
+    let (record, reduced) = mil_diagnose::diagnose::within_budget(&model, &record)
+        .map_err(|e| anyhow!("{}: {e}", request.data.display()))?;
+    let record = record.as_ref();
+    let mut diagnosis =
+        mil_diagnose::diagnose_with_progress(&model, record, &Options::default(), progress)
             .map_err(|e| anyhow!("{e}"))?;
+    diagnosis.notes.splice(0..0, reduced);
     let updated_model = diagnosis.write(&request.out).map_err(|e| anyhow!("{e}"))?;
     let report = request.out.join("report.json");
     progress(1.0, "writing plots");
-    let plots = write_plots(&diagnosis, &record, &request.out)?;
+    let plots = write_plots(&diagnosis, record, &request.out)?;
     let tyre = match &request.tyre {
         Some(t) => {
             let section = tyre_section(&diagnosis.updated, &t.element, t.static_load_n)?;
