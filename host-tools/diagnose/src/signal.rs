@@ -352,10 +352,36 @@ pub fn power_quantile_hz(x: &[f64], dt: f64, p: f64) -> f64 {
 /// sample rate, where oversampled mechanical records hold measurement noise only).
 /// Returns the Nyquist frequency when no band falls below the threshold.
 pub fn signal_band_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
+    match bands_above_noise(x, dt, snr) {
+        Some((bands, df)) => bands
+            .iter()
+            .filter(|b| b.2)
+            .map(|b| b.1)
+            .fold(2.0 * df, f64::max)
+            .min(0.5 / dt),
+        None => 0.5 / dt,
+    }
+}
+
+/// Lowest frequency (Hz) from which the mean-removed signal stands clearly above its noise
+/// floor: the lower edge of the lowest 1/6-octave band whose mean periodogram exceeds
+/// `snr` times the noise floor (as in [`signal_band_edge_hz`]). Returns the Nyquist
+/// frequency when no band does, and two frequency bins for records too short to tell.
+pub fn signal_low_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
+    match bands_above_noise(x, dt, snr) {
+        Some((bands, _)) => bands.iter().find(|b| b.2).map_or(0.5 / dt, |b| b.0),
+        None => 2.0 / (x.len().max(1) as f64 * dt),
+    }
+}
+
+/// The 1/6-octave bands from two frequency bins up to 0.35 of the sample rate, each
+/// `(from Hz, to Hz, mean periodogram above snr × the noise floor)`, and the bin width;
+/// `None` under 64 samples or with no noise floor (see [`signal_band_edge_hz`]).
+#[allow(clippy::type_complexity)]
+fn bands_above_noise(x: &[f64], dt: f64, snr: f64) -> Option<(Vec<(f64, f64, bool)>, f64)> {
     let n = x.len();
-    let nyq = 0.5 / dt;
     if n < 64 {
-        return nyq;
+        return None;
     }
     let m = mean(x);
     let mut buf: Vec<Complex64> = x.iter().map(|v| Complex64::new(v - m, 0.0)).collect();
@@ -364,65 +390,23 @@ pub fn signal_band_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
     let df = 1.0 / (n as f64 * dt);
     let power: Vec<f64> = buf[..=half].iter().map(|c| c.norm_sqr()).collect();
     let lo = ((0.35 / dt) / df) as usize;
-    let floor = {
-        let tail: Vec<f64> = power[lo.min(half)..=half].to_vec();
-        quantile(&tail, 0.5)
-    };
-    if floor <= 0.0 {
-        return nyq;
-    }
-    let ratio = 2f64.powf(1.0 / 6.0);
-    let mut f = 2.0 * df;
-    let mut edge = 2.0 * df;
-    while f < 0.35 / dt {
-        let (a, b) = (
-            (f / df) as usize,
-            ((f * ratio / df) as usize).max((f / df) as usize + 1),
-        );
-        let band = &power[a.min(half)..b.min(half + 1)];
-        if !band.is_empty() && mean(band) > snr * floor {
-            edge = f * ratio;
-        }
-        f *= ratio;
-    }
-    edge.min(nyq)
-}
-
-/// Lowest frequency (Hz) from which the mean-removed signal stands clearly above its noise
-/// floor: the lower edge of the lowest 1/6-octave band whose mean periodogram exceeds
-/// `snr` times the noise floor (as in [`signal_band_edge_hz`]). Returns the Nyquist
-/// frequency when no band does, and two frequency bins for records too short to tell.
-pub fn signal_low_edge_hz(x: &[f64], dt: f64, snr: f64) -> f64 {
-    let n = x.len();
-    let nyq = 0.5 / dt;
-    let df = 1.0 / (n.max(1) as f64 * dt);
-    if n < 64 {
-        return 2.0 * df;
-    }
-    let m = mean(x);
-    let mut buf: Vec<Complex64> = x.iter().map(|v| Complex64::new(v - m, 0.0)).collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
-    let half = n / 2;
-    let power: Vec<f64> = buf[..=half].iter().map(|c| c.norm_sqr()).collect();
-    let lo = ((0.35 / dt) / df) as usize;
     let floor = quantile(&power[lo.min(half)..=half], 0.5);
     if floor <= 0.0 {
-        return 2.0 * df;
+        return None;
     }
     let ratio = 2f64.powf(1.0 / 6.0);
     let mut f = 2.0 * df;
+    let mut bands = Vec::new();
     while f < 0.35 / dt {
         let (a, b) = (
             (f / df) as usize,
             ((f * ratio / df) as usize).max((f / df) as usize + 1),
         );
         let band = &power[a.min(half)..b.min(half + 1)];
-        if !band.is_empty() && mean(band) > snr * floor {
-            return f;
-        }
+        bands.push((f, f * ratio, !band.is_empty() && mean(band) > snr * floor));
         f *= ratio;
     }
-    nyq
+    Some((bands, df))
 }
 
 /// Standard deviation of the white measurement noise on `x` (sampled every `dt` s),
