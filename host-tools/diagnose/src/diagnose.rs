@@ -2079,13 +2079,8 @@ mod budget_tests {
     /// Hz plus 1 % of white noise.
     fn record(len: usize, fs: f64, top: f64) -> Record {
         let noise = 0.01;
-        let mut s = 11u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = mil_rig::rng::SplitMix64::new(11u64);
+        let mut rnd = move || rng.uniform() - 0.5;
         let t: Vec<f64> = (0..len).map(|i| i as f64 / fs).collect();
         let sine = |t: &f64| {
             (std::f64::consts::TAU * 2.0 * t).sin() + 0.3 * (std::f64::consts::TAU * top * t).sin()

@@ -1052,13 +1052,8 @@ mod tests {
         let text = include_str!("../examples/oscillator.toml");
         let model = Model::from_toml(text).expect("oscillator.toml");
         let (n, dt) = (4000, 1e-3);
-        let mut s = 99u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = mil_rig::rng::SplitMix64::new(99u64);
+        let mut rnd = move || rng.uniform() - 0.5;
         let force: Vec<f64> = (0..n).map(|_| 50.0 * rnd()).collect();
         let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
         let rec = Record::new(

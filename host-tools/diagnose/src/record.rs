@@ -239,13 +239,8 @@ mod tests {
     #[test]
     fn block_means_keep_white_noise_white_and_stamp_the_block_centre() {
         let n = 40_000;
-        let mut s = 3u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = mil_rig::rng::SplitMix64::new(3u64);
+        let mut rnd = move || rng.uniform() - 0.5;
         let t: Vec<f64> = (0..n).map(|i| 2.0 + i as f64 * 1e-3).collect();
         let noise: Vec<f64> = (0..n).map(|_| rnd()).collect();
         let slow: Vec<f64> = t

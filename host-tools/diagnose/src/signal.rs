@@ -495,19 +495,8 @@ mod tests {
 
     #[test]
     fn noise_std_of_a_slow_signal_with_white_noise() {
-        let mut s = 777u64;
-        let mut normal = || {
-            // Sum of 12 uniforms: unit variance, zero mean.
-            (0..12)
-                .map(|_| {
-                    s ^= s << 13;
-                    s ^= s >> 7;
-                    s ^= s << 17;
-                    s as f64 / u64::MAX as f64
-                })
-                .sum::<f64>()
-                - 6.0
-        };
+        let mut rng = mil_rig::rng::SplitMix64::new(777);
+        let mut normal = move || rng.normal();
         let dt = 1e-3;
         for sigma in [1e-4, 0.02] {
             let x: Vec<f64> = (0..20_000)
@@ -522,15 +511,8 @@ mod tests {
 
     #[test]
     fn white_noise_has_unit_correlation_time() {
-        let mut s = 12345u64;
-        let r: Vec<f64> = (0..5000)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                (s as f64 / u64::MAX as f64) - 0.5
-            })
-            .collect();
+        let mut rng = mil_rig::rng::SplitMix64::new(12345);
+        let r: Vec<f64> = (0..5000).map(|_| rng.uniform() - 0.5).collect();
         assert!(correlation_time(&r) < 1.2);
         let smooth = lowpass_zero_phase(&r, 25.0, 1e-3);
         assert!(correlation_time(&smooth) > 5.0);
