@@ -316,7 +316,9 @@ enum Param {
     Gamma(usize),
     Delay(usize),
     Rate(usize),
-    Sat(usize),
+    SatLo(usize),
+    SatHi(usize),
+    Play(usize),
 }
 
 impl Param {
@@ -332,7 +334,9 @@ impl Param {
             Param::Gamma(e) => l(e).hysteresis.map_or(0.0, |h| h.gamma),
             Param::Delay(j) => m.inputs[j].law.delay_s.unwrap_or(0.0),
             Param::Rate(j) => m.inputs[j].law.rate_limit.unwrap_or(0.0),
-            Param::Sat(j) => m.inputs[j].law.saturation.unwrap_or(0.0),
+            Param::SatLo(j) => m.inputs[j].law.saturation.map_or(0.0, |s| s.0),
+            Param::SatHi(j) => m.inputs[j].law.saturation.map_or(0.0, |s| s.1),
+            Param::Play(j) => m.inputs[j].law.backlash.unwrap_or(0.0),
         }
     }
 
@@ -395,9 +399,23 @@ impl Param {
                 m.inputs[j].law.rate_limit = Some(v);
                 v > 0.0
             }
-            Param::Sat(j) => {
-                m.inputs[j].law.saturation = Some(v);
-                v > 0.0
+            Param::SatLo(j) => match m.inputs[j].law.saturation.as_mut() {
+                Some(s) if v < s.1 => {
+                    s.0 = v;
+                    true
+                }
+                _ => false,
+            },
+            Param::SatHi(j) => match m.inputs[j].law.saturation.as_mut() {
+                Some(s) if v > s.0 => {
+                    s.1 = v;
+                    true
+                }
+                _ => false,
+            },
+            Param::Play(j) => {
+                m.inputs[j].law.backlash = Some(v);
+                nonneg
             }
         }
     }
@@ -409,9 +427,12 @@ impl Param {
 /// hysteretic stiffness `k_h`, delay. Lift-off, rate limit and saturation vanish only as
 /// their parameter goes to infinity: `None`.
 fn strength(m: &Model, kind: EffectKind, target: &str) -> Option<Param> {
-    if kind.on_input() {
-        let j = m.inputs.iter().position(|i| i.name == target)?;
-        return (kind == EffectKind::InputDelay).then_some(Param::Delay(j));
+    if let Some(j) = m.inputs.iter().position(|i| i.name == target) {
+        return match kind {
+            EffectKind::InputDelay => Some(Param::Delay(j)),
+            EffectKind::Backlash => Some(Param::Play(j)),
+            _ => None,
+        };
     }
     let e = m.elements.iter().position(|x| x.name == target)?;
     let l = &m.elements[e].law;
@@ -459,7 +480,11 @@ fn nonlinear_params(model: &Model) -> Vec<Param> {
             out.push(Param::Rate(j));
         }
         if i.law.saturation.is_some() {
-            out.push(Param::Sat(j));
+            out.push(Param::SatLo(j));
+            out.push(Param::SatHi(j));
+        }
+        if i.law.backlash.is_some() {
+            out.push(Param::Play(j));
         }
     }
     out
@@ -633,7 +658,9 @@ impl Context<'_> {
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
     kind: EffectKind,
+    /// Index of the element, or of the input with `input`.
     target: usize,
+    input: bool,
 }
 
 /// Effectively independent rows (fitting rows over the residual's correlation time) on
@@ -672,12 +699,20 @@ fn cand_cost(kind: EffectKind) -> usize {
 fn candidates(model: &Model, kinds: &[EffectKind]) -> Vec<Candidate> {
     let mut out = Vec::new();
     for &kind in kinds {
-        if kind.on_input() {
+        if kind.fits_input() {
             for (j, i) in model.inputs.iter().enumerate() {
-                if !i.law.kinds().contains(&kind) {
-                    out.push(Candidate { kind, target: j });
+                let play_on_force =
+                    kind == EffectKind::Backlash && i.kind != InputKind::Displacement;
+                if !i.law.kinds().contains(&kind) && !play_on_force {
+                    out.push(Candidate {
+                        kind,
+                        target: j,
+                        input: true,
+                    });
                 }
             }
+        }
+        if !kind.fits_element() {
             continue;
         }
         for (e, el) in model.elements.iter().enumerate() {
@@ -694,7 +729,11 @@ fn candidates(model: &Model, kinds: &[EffectKind]) -> Vec<Candidate> {
                 _ => true,
             };
             if ok {
-                out.push(Candidate { kind, target: e });
+                out.push(Candidate {
+                    kind,
+                    target: e,
+                    input: false,
+                });
             }
         }
     }
@@ -705,7 +744,7 @@ fn candidates(model: &Model, kinds: &[EffectKind]) -> Vec<Candidate> {
 /// pulls, negative friction or quadratic damping, a damper that drives, a hysteretic
 /// fraction outside [0, 1] are not that effect, whatever they fit).
 fn physical(m: &Model, cand: Candidate) -> bool {
-    if cand.kind.on_input() {
+    if cand.input {
         return true;
     }
     let l = &m.elements[cand.target].law;
@@ -752,6 +791,72 @@ fn fit_candidate(
     let mut variants: Vec<Model> = Vec::new();
     let mut added = 1;
     let q = |s: &[f64], p: f64| signal::quantile(&s[range.clone()], p);
+    if cand.input {
+        let j = cand.target;
+        let raw = &st.inputs_raw[j];
+        let with = |set: &dyn Fn(&mut crate::effects::InputLaw)| {
+            let mut m = model.clone();
+            set(&mut m.inputs[j].law);
+            m
+        };
+        match cand.kind {
+            EffectKind::InputDelay => {
+                for k in [0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0] {
+                    variants.push(with(&|l| l.delay_s = Some(k * st.dt)));
+                }
+            }
+            EffectKind::Saturation => {
+                // Each limit at its own quantile of the input, or out of reach: symmetric,
+                // unequal and one-sided clipping alike (the refinement then moves both; it
+                // cannot bring back a limit that clips nothing, hence the full grid).
+                added = 2;
+                let (top, bottom) = (q(raw, 1.0), q(raw, 0.0));
+                let span = top - bottom;
+                let probs = [0.8, 0.9, 0.95, 0.99, 0.997, 1.0];
+                let level = |p: f64, upper: bool| match (p < 1.0, upper) {
+                    (true, true) => q(raw, p),
+                    (true, false) => q(raw, 1.0 - p),
+                    (false, true) => top + span,
+                    (false, false) => bottom - span,
+                };
+                for &pl in &probs {
+                    for &pu in &probs {
+                        let limits = (level(pl, false), level(pu, true));
+                        if (pl < 1.0 || pu < 1.0) && limits.1 > limits.0 {
+                            variants.push(with(&|l| l.saturation = Some(limits)));
+                        }
+                    }
+                }
+            }
+            EffectKind::Backlash => {
+                // Half gaps at quantiles of the input's distance from its median (scale
+                // free, whatever the record's order).
+                let mid = q(raw, 0.5);
+                let dev: Vec<f64> = raw.iter().map(|v| (v - mid).abs()).collect();
+                for p in [0.03, 0.07, 0.15, 0.25, 0.35, 0.5] {
+                    let b = q(&dev, p);
+                    if b > 0.0 {
+                        variants.push(with(&|l| l.backlash = Some(b)));
+                    }
+                }
+            }
+            _ => {
+                // Rates at high quantiles of the input's rate in its signal band (the raw
+                // input's sample-to-sample rate is mostly its noise), up to the rarest
+                // events (bumps).
+                let smooth = signal::lowpass_zero_phase(raw, st.fc_hz, st.dt);
+                let d = signal::derivative(&smooth, st.dt);
+                let a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
+                for p in [0.7, 0.9, 0.97, 0.99, 0.997, 0.999] {
+                    let l = q(&a, p);
+                    if l > 0.0 {
+                        variants.push(with(&|law| law.rate_limit = Some(l)));
+                    }
+                }
+            }
+        }
+        return best_grid(ctx, grid, variants, &free).map(|f| (f, added));
+    }
     match cand.kind {
         EffectKind::CubicStiffness => {
             let mut m = model.clone();
@@ -877,41 +982,7 @@ fn fit_candidate(
             return Some((refined, added));
         }
         EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => {
-            let j = cand.target;
-            let raw = &st.inputs_raw[j];
-            let r = range.clone();
-            match cand.kind {
-                EffectKind::InputDelay => {
-                    for k in [0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0] {
-                        let mut m = model.clone();
-                        m.inputs[j].law.delay_s = Some(k * st.dt);
-                        variants.push(m);
-                    }
-                }
-                EffectKind::Saturation => {
-                    let a: Vec<f64> = raw[r].iter().map(|v| v.abs()).collect();
-                    for p in [0.7, 0.8, 0.9, 0.95, 0.99] {
-                        let l = signal::quantile(&a, p);
-                        if l > 0.0 {
-                            let mut m = model.clone();
-                            m.inputs[j].law.saturation = Some(l);
-                            variants.push(m);
-                        }
-                    }
-                }
-                _ => {
-                    let d = signal::derivative(&raw[r], st.dt);
-                    let a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
-                    for p in [0.7, 0.8, 0.9, 0.95, 0.99] {
-                        let l = signal::quantile(&a, p);
-                        if l > 0.0 {
-                            let mut m = model.clone();
-                            m.inputs[j].law.rate_limit = Some(l);
-                            variants.push(m);
-                        }
-                    }
-                }
-            }
+            unreachable!("input effects are handled above")
         }
     }
     best_grid(ctx, grid, variants, &free).map(|f| (f, added))
@@ -1006,7 +1077,7 @@ pub const RELATIVE_FLOOR: f64 = 0.01;
 
 /// The name of the element or input a candidate is on.
 fn target_name(model: &Model, cand: Candidate) -> String {
-    if cand.kind.on_input() {
+    if cand.input {
         model.inputs[cand.target].name.clone()
     } else {
         model.elements[cand.target].name.clone()
@@ -1607,7 +1678,7 @@ pub fn diagnose_with_progress(
         let mut free_now = current.free.clone();
         let without = |updated: &Model, free_now: &[Coef], what: EffectKind, target: &str| {
             let mut m_wo = updated.clone();
-            if what.on_input() {
+            if updated.is_input(target) {
                 if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
                     inp.law.remove(what);
                 }
@@ -1709,6 +1780,38 @@ pub fn diagnose_with_progress(
         );
         (ee_gap(model), ee_gap(&recal_model), ee_gap(&updated), None)
     };
+    // A saturation limit the record never reaches is reported at the input's extreme (the
+    // limit is there or beyond; the record cannot say where).
+    for (j, inp) in updated.inputs.iter_mut().enumerate() {
+        let Some((lo, hi)) = inp.law.saturation else {
+            continue;
+        };
+        let raw = &st.inputs_raw[j];
+        let (min, max) = raw.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| {
+            (a.0.min(*v), a.1.max(*v))
+        });
+        for (side, extreme, beyond) in [
+            (
+                "lower limit; reported at the input's minimum",
+                min,
+                lo <= min,
+            ),
+            (
+                "upper limit; reported at the input's maximum",
+                max,
+                hi >= max,
+            ),
+        ] {
+            if beyond {
+                notes.push(format!(
+                    "saturation on {:?}: the record never reaches a {side} {extreme:.6e} \
+                     (the limit is there or beyond)",
+                    inp.name
+                ));
+            }
+        }
+        inp.law.saturation = Some((lo.max(min), hi.min(max)));
+    }
     // Named effects' parameters and uncertainties.
     for n in &mut named {
         let params = effect_parameters(&updated, n.named.effect, &n.named.element);
@@ -1746,7 +1849,7 @@ pub fn diagnose_with_progress(
         let (u, ud) = equation::model_inputs(&recal_fit.model, &st);
         let sig = equation::element_signals(&recal_fit.model, &st, &u, &ud);
         for n in &named {
-            if n.named.effect.on_input()
+            if recal_fit.model.is_input(&n.named.element)
                 || regions
                     .iter()
                     .any(|r: &RegionEvidence| r.element == n.named.element)
@@ -1832,7 +1935,7 @@ fn strip(m: &Model) -> Model {
 }
 
 fn effect_parameters(m: &Model, kind: EffectKind, target: &str) -> BTreeMap<String, f64> {
-    if kind.on_input() {
+    if m.is_input(target) {
         m.inputs
             .iter()
             .find(|i| i.name == target)

@@ -18,7 +18,9 @@
 //!
 //! Input effects (on a displacement or force input `u`, in the input's SI unit, applied in
 //! this order): `input_delay` `u(t − τ)`, `rate_limit` `|du/dt| <= r`, `saturation`
-//! `clamp(u, −L, L)`.
+//! `clamp(u, lower, upper)`, and on a displacement input `backlash`, free play of half gap
+//! `b` in the input's linkage (the play operator: the output holds until the input has moved
+//! `b` past it, then follows it at that distance).
 
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -37,13 +39,15 @@ pub enum EffectKind {
     /// End stop: `stiffness_n_per_m` (N/m) and `gap_m` (compression side, m) and/or
     /// `rebound_gap_m` (extension side, m).
     BumpStop,
-    /// Free play in the spring path: `half_gap_m` (m).
+    /// Free play in an element's spring path, or in a displacement input's linkage (the
+    /// play operator): `half_gap_m` (m).
     Backlash,
     /// Pure delay of an input: `delay_s` (s).
     InputDelay,
     /// Rate limit of an input: `rate_per_s` (input unit per s: m/s or N/s).
     RateLimit,
-    /// Symmetric saturation of an input: `limit` (input unit: m or N).
+    /// Saturation of an input between `lower_limit` and `upper_limit` (input unit: m or N;
+    /// `limit` alone for `±limit`).
     Saturation,
     /// `c2 v |v|`: `damping_n_s2_per_m2` (N·s²/m²).
     QuadraticDamping,
@@ -88,9 +92,20 @@ impl EffectKind {
         }
     }
 
-    /// Whether the effect attaches to an input (else to an element).
-    pub fn on_input(self) -> bool {
+    /// Whether the effect can attach to an input.
+    pub fn fits_input(self) -> bool {
         matches!(
+            self,
+            EffectKind::InputDelay
+                | EffectKind::RateLimit
+                | EffectKind::Saturation
+                | EffectKind::Backlash
+        )
+    }
+
+    /// Whether the effect can attach to an element.
+    pub fn fits_element(self) -> bool {
+        !matches!(
             self,
             EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation
         )
@@ -431,8 +446,10 @@ pub struct InputLaw {
     pub delay_s: Option<f64>,
     /// Rate limit (input unit per s), if on.
     pub rate_limit: Option<f64>,
-    /// Saturation limit (input unit), if on.
-    pub saturation: Option<f64>,
+    /// Saturation limits `(lower, upper)` (input unit), if on.
+    pub saturation: Option<(f64, f64)>,
+    /// Half gap `b` of the play in a displacement input's linkage (m), if on.
+    pub backlash: Option<f64>,
 }
 
 impl InputLaw {
@@ -448,18 +465,25 @@ impl InputLaw {
         if self.saturation.is_some() {
             out.push(EffectKind::Saturation);
         }
+        if self.backlash.is_some() {
+            out.push(EffectKind::Backlash);
+        }
         out
     }
 
     /// Parameters of effect `kind` (SI names), or `None` if off.
     pub fn parameters(&self, kind: EffectKind) -> Option<BTreeMap<String, f64>> {
-        let (name, v) = match kind {
-            EffectKind::InputDelay => ("delay_s", self.delay_s?),
-            EffectKind::RateLimit => ("rate_per_s", self.rate_limit?),
-            EffectKind::Saturation => ("limit", self.saturation?),
+        let pairs: Vec<(&str, f64)> = match kind {
+            EffectKind::InputDelay => vec![("delay_s", self.delay_s?)],
+            EffectKind::RateLimit => vec![("rate_per_s", self.rate_limit?)],
+            EffectKind::Saturation => {
+                let (lo, hi) = self.saturation?;
+                vec![("lower_limit", lo), ("upper_limit", hi)]
+            }
+            EffectKind::Backlash => vec![("half_gap_m", self.backlash?)],
             _ => return None,
         };
-        Some(BTreeMap::from([(name.to_string(), v)]))
+        Some(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
     }
 
     /// Switches on input effect `kind` with `parameters`.
@@ -480,9 +504,35 @@ impl InputLaw {
                 self.rate_limit = Some(r);
             }
             EffectKind::Saturation => {
-                let l = reader.get("limit")?;
-                reader.check(l > 0.0, "limit", l, "> 0")?;
-                self.saturation = Some(l);
+                let limits = match reader.opt("limit")? {
+                    Some(l) => {
+                        reader.check(l > 0.0, "limit", l, "> 0")?;
+                        (-l, l)
+                    }
+                    None => {
+                        let lo = reader.get("lower_limit")?;
+                        let hi = reader.get("upper_limit")?;
+                        reader.check(hi > lo, "upper_limit", hi, "above lower_limit")?;
+                        (lo, hi)
+                    }
+                };
+                if reader.map.contains_key("limit")
+                    && (reader.map.contains_key("lower_limit")
+                        || reader.map.contains_key("upper_limit"))
+                {
+                    return Err(Error::Model(
+                        "saturation: give limit (symmetric) or lower_limit and upper_limit, \
+                         not both"
+                            .into(),
+                    ));
+                }
+                reader.used.extend(["lower_limit", "upper_limit"]);
+                self.saturation = Some(limits);
+            }
+            EffectKind::Backlash => {
+                let b = reader.get("half_gap_m")?;
+                reader.check(b >= 0.0, "half_gap_m", b, ">= 0")?;
+                self.backlash = Some(b);
             }
             _ => {
                 return Err(Error::Model(format!(
@@ -499,13 +549,14 @@ impl InputLaw {
             EffectKind::InputDelay => self.delay_s = None,
             EffectKind::RateLimit => self.rate_limit = None,
             EffectKind::Saturation => self.saturation = None,
+            EffectKind::Backlash => self.backlash = None,
             _ => {}
         }
     }
 
     /// The input signal `u` (input unit, sampled every `dt` s) as the model sees it: delayed
     /// (linear interpolation, the first sample held before the start), rate limited,
-    /// saturated.
+    /// saturated, passed through the play (centred on the first sample).
     pub fn transform(&self, u: &[f64], dt: f64) -> Vec<f64> {
         let mut out: Vec<f64> = match self.delay_s {
             Some(d) if d > 0.0 => {
@@ -523,9 +574,16 @@ impl InputLaw {
                 out[i] = out[i].max(prev - step).min(prev + step);
             }
         }
-        if let Some(l) = self.saturation {
+        if let Some((lo, hi)) = self.saturation {
             for v in &mut out {
-                *v = v.max(-l).min(l);
+                *v = v.max(lo).min(hi);
+            }
+        }
+        if let Some(b) = self.backlash {
+            let mut held = out.first().copied().unwrap_or(0.0);
+            for v in &mut out {
+                held = held.max(*v - b).min(*v + b);
+                *v = held;
             }
         }
         out
@@ -600,7 +658,7 @@ mod tests {
 
     #[test]
     fn parameters_round_trip_through_apply() {
-        for kind in EffectKind::ALL.iter().copied().filter(|k| !k.on_input()) {
+        for kind in EffectKind::ALL.iter().copied().filter(|k| k.fits_element()) {
             let mut law = ElementLaw::linear(1e4, 100.0);
             let pairs: Vec<(&str, f64)> = match kind {
                 EffectKind::LiftOff => [("preload_n", 500.0)].to_vec(),
@@ -657,11 +715,71 @@ mod tests {
         assert!((y[50] - 47.5).abs() < 1e-12);
         let law = InputLaw {
             rate_limit: Some(500.0),
-            saturation: Some(20.0),
+            saturation: Some((-5.0, 20.0)),
             ..InputLaw::default()
         };
         let y = law.transform(&u, 0.001);
         assert!((y[10] - 5.0).abs() < 1e-12);
         assert_eq!(y[99], 20.0);
+        let down: Vec<f64> = u.iter().map(|v| -v).collect();
+        assert_eq!(law.transform(&down, 0.001)[99], -5.0);
+    }
+
+    #[test]
+    fn input_play_holds_until_the_input_moves_past_the_gap() {
+        // Up 0 -> 10, back down to 4, up again to 8.
+        let u: Vec<f64> = (0..=10)
+            .chain((4..10).rev())
+            .chain(5..=8)
+            .map(f64::from)
+            .collect();
+        let law = InputLaw {
+            backlash: Some(2.0),
+            ..InputLaw::default()
+        };
+        let y = law.transform(&u, 1.0);
+        // Follows 2 behind on the way up, holds at 8 while the input comes back to 6, then
+        // follows 2 ahead; holds again at 6 until the input passes 8.
+        assert_eq!(y[10], 8.0);
+        assert_eq!(&y[11..14], &[8.0, 8.0, 8.0]);
+        assert_eq!(y[16], 6.0);
+        assert_eq!(y[y.len() - 1], 6.0);
+        assert!(y.iter().zip(&u).all(|(a, b)| (a - b).abs() <= 2.0));
+    }
+
+    #[test]
+    fn input_parameters_round_trip_and_saturation_takes_one_or_two_limits() {
+        let map = |pairs: &[(&str, f64)]| -> BTreeMap<String, f64> {
+            pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+        };
+        let mut law = InputLaw::default();
+        law.apply(EffectKind::Saturation, &map(&[("limit", 3.0)]))
+            .unwrap();
+        assert_eq!(law.saturation, Some((-3.0, 3.0)));
+        let two = map(&[("lower_limit", -1.0), ("upper_limit", 4.0)]);
+        law.apply(EffectKind::Saturation, &two).unwrap();
+        assert_eq!(law.parameters(EffectKind::Saturation).unwrap(), two);
+        let both = map(&[("limit", 3.0), ("upper_limit", 4.0)]);
+        assert!(InputLaw::default()
+            .apply(EffectKind::Saturation, &both)
+            .is_err());
+        let crossed = map(&[("lower_limit", 2.0), ("upper_limit", 1.0)]);
+        let err = InputLaw::default()
+            .apply(EffectKind::Saturation, &crossed)
+            .unwrap_err();
+        assert!(err.to_string().contains("upper_limit"), "{err}");
+        let play = map(&[("half_gap_m", 0.002)]);
+        law.apply(EffectKind::Backlash, &play).unwrap();
+        assert_eq!(law.parameters(EffectKind::Backlash).unwrap(), play);
+        assert_eq!(
+            law.kinds(),
+            vec![EffectKind::Saturation, EffectKind::Backlash]
+        );
+        assert!(InputLaw::default()
+            .apply(
+                EffectKind::CubicStiffness,
+                &map(&[("stiffness_n_per_m3", 1.0)])
+            )
+            .is_err());
     }
 }

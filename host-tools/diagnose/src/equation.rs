@@ -821,8 +821,9 @@ fn input_memo(
     let (d, r, s) = (
         opt_words(l.delay_s),
         opt_words(l.rate_limit),
-        opt_words(l.saturation),
+        opt_words(l.saturation.map(|s| s.0)),
     );
+    let (s_hi, p) = (opt_words(l.saturation.map(|s| s.1)), opt_words(l.backlash));
     let disp = inp.kind == InputKind::Displacement;
     let words = [
         1,
@@ -834,6 +835,9 @@ fn input_memo(
         r[1],
         s[0],
         s[1],
+        s_hi[1],
+        p[0],
+        p[1],
     ];
     let key = signal::fingerprint_words(words.into_iter(), words.len(), 5);
     let v = st.cache.memo_key(key, || {

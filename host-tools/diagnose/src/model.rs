@@ -513,6 +513,11 @@ impl Model {
         Ok(model)
     }
 
+    /// Whether `name` is one of the inputs (else an element, if anything).
+    pub fn is_input(&self, name: &str) -> bool {
+        self.inputs.iter().any(|i| i.name == name)
+    }
+
     /// Attaches an effect (replacing one of the same kind on the same target).
     ///
     /// # Errors
@@ -522,13 +527,39 @@ impl Model {
             Error::Model(m) => Error::Model(format!("effect on {:?}: {m}", fx.element)),
             other => other,
         };
-        if fx.effect.on_input() {
-            let Some(inp) = self.inputs.iter_mut().find(|i| i.name == fx.element) else {
-                return Err(Error::Model(format!(
-                    "effect {}: {:?} is not an input",
-                    fx.effect, fx.element
-                )));
+        let on_input = self.is_input(&fx.element);
+        if on_input && !fx.effect.fits_input() || !on_input && !fx.effect.fits_element() {
+            let (is, other) = if on_input {
+                ("an input", "an element")
+            } else {
+                ("not an input", "an input")
             };
+            let exists = on_input || self.elements.iter().any(|e| e.name == fx.element);
+            return Err(Error::Model(if exists {
+                format!(
+                    "effect {}: {:?} is {is}; {} attaches to {other}",
+                    fx.effect, fx.element, fx.effect
+                )
+            } else {
+                format!(
+                    "effect {}: {:?} is neither an element nor an input",
+                    fx.effect, fx.element
+                )
+            }));
+        }
+        if on_input {
+            let inp = self
+                .inputs
+                .iter_mut()
+                .find(|i| i.name == fx.element)
+                .ok_or_else(|| Error::Model(format!("{:?} is not an input", fx.element)))?;
+            if fx.effect == EffectKind::Backlash && inp.kind != InputKind::Displacement {
+                return Err(Error::Model(format!(
+                    "effect backlash on {:?}: free play needs a displacement input, this one is a \
+                     force",
+                    fx.element
+                )));
+            }
             inp.law
                 .apply(fx.effect, &fx.parameters)
                 .map_err(|e| wrap(e, fx))

@@ -362,7 +362,15 @@ fn input_effect_record(
             let peak = f.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             // The higher the limit, the smaller the change.
             let limit = bisect(0.0, peak, -reference.0, |l| -change(f, &clipped(f, l)));
-            (clipped(f, limit), vec![("limit", limit, 0.10)])
+            // A limit the force never reaches is reported at the force's extreme.
+            let lowest = f.iter().fold(f64::INFINITY, |m, v| m.min(*v));
+            (
+                clipped(f, limit),
+                vec![
+                    ("lower_limit", (-limit).max(lowest), 0.10),
+                    ("upper_limit", limit, 0.10),
+                ],
+            )
         }
         EffectKind::RateLimit => {
             let top = f

@@ -123,3 +123,47 @@ fn effects_in_the_file_are_simulated() {
     let min_linear = sim.outputs[2].iter().cloned().fold(f64::INFINITY, f64::min);
     assert!(min_linear < -2.0 * preload, "{min_linear}");
 }
+
+#[test]
+fn effects_attach_only_where_they_mean_something() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let osc = std::fs::read_to_string(dir.join("oscillator.toml")).unwrap();
+    let tyre = std::fs::read_to_string(dir.join("tyre.toml")).unwrap();
+    let with = |base: &str, effect: &str, on: &str, params: &str| {
+        Model::from_toml(&format!(
+            "{base}\n[[effect]]\neffect = \"{effect}\"\nelement = \"{on}\"\nparameters = {{ {params} }}\n"
+        ))
+    };
+    // Free play on a displacement input is the linkage's play operator; on a force input
+    // it means nothing and is refused, naming the input.
+    let m = with(&tyre, "backlash", "road", "half_gap_m = 0.002").unwrap();
+    assert_eq!(m.inputs[0].law.backlash, Some(0.002));
+    assert_eq!(m.effect_specs()[0].element, "road");
+    let e = with(&osc, "backlash", "force", "half_gap_m = 0.002")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("force") && e.contains("displacement input"),
+        "{e}"
+    );
+    // Input-only effects on an element, and misspelt targets, are refused by name.
+    let e = with(&osc, "saturation", "spring", "limit = 1.0")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("spring") && e.contains("input"), "{e}");
+    let e = with(&osc, "input_delay", "forse", "delay_s = 0.01")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("forse"), "{e}");
+    // Saturation with its own limits reads and writes back as such.
+    let m = with(
+        &osc,
+        "saturation",
+        "force",
+        "lower_limit = -5.0, upper_limit = 9.0",
+    )
+    .unwrap();
+    assert_eq!(m.inputs[0].law.saturation, Some((-5.0, 9.0)));
+    let back = Model::from_toml(&m.to_toml()).unwrap();
+    assert_eq!(back.inputs[0].law.saturation, Some((-5.0, 9.0)));
+}

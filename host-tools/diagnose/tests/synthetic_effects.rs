@@ -278,11 +278,57 @@ fn hidden_input_saturation_is_named() {
     let record = force_record(Effects::default(), &applied, &f, seed(16));
     let d = run("saturation (noise)", &oscillator_model(), &record);
     assert_eq!(names(&d), [EffectKind::Saturation]);
-    // Limit within 10 %.
+    // Each limit within 10 %.
+    for (key, truth) in [("lower_limit", -limit), ("upper_limit", limit)] {
+        check_rel(key, param(&d, EffectKind::Saturation, key), truth, 0.10);
+    }
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_unequal_input_saturation_is_named() {
+    // The drive clips the commanded force at -1.2 and +2.0 × its RMS (a one-sided clip in
+    // effect: about 11 % of the samples below, 2 % above).
+    let (lower, upper) = (-1.2 * FORCE_RMS, 2.0 * FORCE_RMS);
+    let f = noise_force(seed(20));
+    let applied: Vec<f64> = f.iter().map(|v| v.clamp(lower, upper)).collect();
+    let record = force_record(Effects::default(), &applied, &f, seed(20));
+    let d = run("unequal saturation (noise)", &oscillator_model(), &record);
+    assert_eq!(names(&d), [EffectKind::Saturation]);
+    for (key, truth) in [("lower_limit", lower), ("upper_limit", upper)] {
+        check_rel(key, param(&d, EffectKind::Saturation, key), truth, 0.10);
+    }
+    check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_road_play_is_named_on_the_input() {
+    // The road actuator reaches the wheel pan through a linkage with 1.5 mm of free play
+    // each way (a play operator on the road, about half the road's 2 mm RMS profile); the
+    // record logs the actuator's road, before the play.
+    let half_gap = 1.5e-3;
+    let road = track_road(seed(21));
+    let mut held = road[0];
+    let played: Vec<f64> = road
+        .iter()
+        .map(|&w| {
+            held = held.clamp(w - half_gap, w + half_gap);
+            held
+        })
+        .collect();
+    let (x, _) = wheel_response(&played, false);
+    let record = noisy_record("road", &road, &x, seed(21));
+    let d = run(
+        "free play on the road (track-like road)",
+        &wheel_model(),
+        &record,
+    );
+    assert_eq!(names(&d), [EffectKind::Backlash]);
+    assert_eq!(d.named[0].named.element, "road", "placed on the input");
     check_rel(
-        "limit",
-        param(&d, EffectKind::Saturation, "limit"),
-        limit,
+        "half gap",
+        param(&d, EffectKind::Backlash, "half_gap_m"),
+        half_gap,
         0.10,
     );
     check_gap(&d, 2.0);

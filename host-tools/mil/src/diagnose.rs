@@ -372,7 +372,7 @@ fn restoring_force(d: &Diagnosis, st: &States, dir: &Path) -> Result<Vec<PathBuf
     let name = d
         .named
         .iter()
-        .find(|n| !n.named.effect.on_input())
+        .find(|n| !recal.is_input(&n.named.element))
         .map(|n| n.named.element.clone())
         .or_else(|| recal.elements.first().map(|e| e.name.clone()));
     let Some(name) = name else {
