@@ -2011,6 +2011,15 @@ struct RefineOn<'a> {
 /// budget ([`REFINE_EFFECTIVE_SAMPLES`]): 8, evenly spread over the record.
 pub const REFINE_WINDOWS: usize = 8;
 
+/// How many times the start model's integration steps per sample a trial of the
+/// output-error refinement may need: 4 (a step that needs more creates a fast mode, such as
+/// a mass collapsing towards zero, rather than refining the model; it is refused, which
+/// also bounds the refinement's cost).
+pub const MAX_SUBSTEP_GROWTH: usize = 4;
+
+/// The least cap on a trial's integration steps per sample, whatever the start needs: 8.
+pub const MIN_SUBSTEP_CAP: usize = 8;
+
 /// Levenberg–Marquardt on the simulated outputs at the fitting blocks' samples; the
 /// parameters are the linear coefficients `free` and the effects' other parameters. The
 /// whole record is simulated when its fitting blocks hold at most
@@ -2069,7 +2078,16 @@ fn refine_output_error(
             })
             .collect()
     };
-    let residual = |m: &Model| residual_on(m, &windows);
+    // A trial that needs many more integration steps than the start is a new fast mode (a
+    // mass collapsing, a stiffness exploding), not a local refinement: refused.
+    let max_substeps =
+        (MAX_SUBSTEP_GROWTH * simulate::substeps(model, record.dt)).max(MIN_SUBSTEP_CAP);
+    let residual = |m: &Model| {
+        if simulate::substeps(m, record.dt) > max_substeps {
+            return None;
+        }
+        residual_on(m, &windows)
+    };
     let mut r = residual(model)?;
     let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
     let mut m = model.clone();
