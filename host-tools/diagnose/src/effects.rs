@@ -37,7 +37,8 @@ pub enum EffectKind {
     /// `k3 x_s³`: `stiffness_n_per_m3` (N/m³; > 0 hardening).
     CubicStiffness,
     /// End stop: `stiffness_n_per_m` (N/m) and `gap_m` (compression side, m) and/or
-    /// `rebound_gap_m` (extension side, m).
+    /// `rebound_gap_m` (extension side, m); a stop on both sides may have its own
+    /// `rebound_stiffness_n_per_m` (N/m, default `stiffness_n_per_m`).
     BumpStop,
     /// Free play in an element's spring path, or in a displacement input's linkage (the
     /// play operator): `half_gap_m` (m).
@@ -314,9 +315,18 @@ impl ElementLaw {
                     put("gap_m", g);
                     put("stiffness_n_per_m", kb);
                 }
-                if let Some((g, kb)) = self.rebound {
-                    put("rebound_gap_m", g);
-                    put("stiffness_n_per_m", kb);
+                match (self.bump, self.rebound) {
+                    (Some((_, kb)), Some((g, kr))) => {
+                        put("rebound_gap_m", g);
+                        if kr != kb {
+                            put("rebound_stiffness_n_per_m", kr);
+                        }
+                    }
+                    (None, Some((g, kr))) => {
+                        put("rebound_gap_m", g);
+                        put("stiffness_n_per_m", kr);
+                    }
+                    _ => {}
                 }
             }
             EffectKind::Backlash => put("half_gap_m", self.backlash?),
@@ -365,6 +375,14 @@ impl ElementLaw {
                 let kb = reader.get("stiffness_n_per_m")?;
                 let gap = reader.opt("gap_m")?;
                 let rgap = reader.opt("rebound_gap_m")?;
+                let kr = reader.opt("rebound_stiffness_n_per_m")?;
+                if kr.is_some() && (gap.is_none() || rgap.is_none()) {
+                    return Err(Error::Model(
+                        "bump_stop: rebound_stiffness_n_per_m is for a stop on both sides (give \
+                         gap_m and rebound_gap_m); a rebound stop alone takes stiffness_n_per_m"
+                            .into(),
+                    ));
+                }
                 if gap.is_none() && rgap.is_none() {
                     return Err(Error::Model(
                         "bump_stop: give gap_m (compression) and/or rebound_gap_m (extension)"
@@ -378,7 +396,7 @@ impl ElementLaw {
                     reader.check(g >= 0.0, "rebound_gap_m", g, ">= 0")?;
                 }
                 self.bump = gap.map(|g| (g, kb));
-                self.rebound = rgap.map(|g| (g, kb));
+                self.rebound = rgap.map(|g| (g, kr.unwrap_or(kb)));
             }
             EffectKind::Backlash => {
                 let b = reader.get("half_gap_m")?;
@@ -694,6 +712,31 @@ mod tests {
                 .unwrap_err();
             assert!(err.to_string().contains("nonsense"), "{err}");
         }
+    }
+
+    #[test]
+    fn a_stop_on_both_sides_keeps_its_own_stiffnesses() {
+        let map = |pairs: &[(&str, f64)]| -> BTreeMap<String, f64> {
+            pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+        };
+        let both = map(&[
+            ("gap_m", 0.01),
+            ("rebound_gap_m", 0.02),
+            ("stiffness_n_per_m", 1e5),
+            ("rebound_stiffness_n_per_m", 3e5),
+        ]);
+        let mut law = ElementLaw::linear(1e4, 100.0);
+        law.apply(EffectKind::BumpStop, &both).unwrap();
+        assert_eq!(law.parameters(EffectKind::BumpStop).unwrap(), both);
+        // 1 mm past each gap.
+        assert!((law.force(0.011, 0.0, 0.0) - (110.0 + 100.0)).abs() < 1e-9);
+        assert!((law.force(-0.021, 0.0, 0.0) - (-210.0 - 300.0)).abs() < 1e-9);
+        let mut one = both.clone();
+        one.remove("gap_m");
+        let err = ElementLaw::linear(1e4, 100.0)
+            .apply(EffectKind::BumpStop, &one)
+            .unwrap_err();
+        assert!(err.to_string().contains("both sides"), "{err}");
     }
 
     #[test]
