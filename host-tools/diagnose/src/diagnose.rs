@@ -1581,8 +1581,8 @@ pub fn diagnose_with_progress(
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
         let chosen = if oe {
             // The best few by the equation error are each refined by output error and must
-            // pay off in simulation on the validation blocks; the one that explains the most
-            // is taken (so a candidate the equation error ranks first but simulation does not
+            // pay off in simulation on the validation blocks; the best of them by the
+            // criterion is taken (so a candidate the equation error ranks first but simulation does not
             // confirm does not end the search).
             ranked.truncate(SELECTION_BRANCHES);
             log(
@@ -1629,10 +1629,19 @@ pub fn diagnose_with_progress(
                     },
                     verdict.text
                 ));
+                // Among the confirmed, the best by the criterion (a branch with more
+                // parameters must explain more to be preferred).
+                let score = |ev: &Evaluation, added: usize| match &cur_eval {
+                    Some(prev) => {
+                        let n_eff = prev.n_eff();
+                        n_eff * ev.total().ln() + added as f64 * n_eff.ln()
+                    }
+                    None => ev.total(),
+                };
                 if verdict.confirmed
                     && best
                         .as_ref()
-                        .is_none_or(|(_, _, _, b)| ev.total() < b.total())
+                        .is_none_or(|(j, _, _, b)| score(&ev, *added) < score(b, ranked[*j].4))
                 {
                     best = Some((i, m, pc, ev));
                 }
