@@ -806,27 +806,44 @@ fn fit_candidate(
                 }
             }
             EffectKind::Saturation => {
-                // Each limit at its own quantile of the input, or out of reach: symmetric,
-                // unequal and one-sided clipping alike (the refinement then moves both; it
-                // cannot bring back a limit that clips nothing, hence the full grid).
+                // Both limits at the same quantile level, or one of them out of reach:
+                // symmetric and one-sided clipping (the refinement then moves both).
                 added = 2;
                 let (top, bottom) = (q(raw, 1.0), q(raw, 0.0));
                 let span = top - bottom;
-                let probs = [0.8, 0.9, 0.95, 0.99, 0.997, 1.0];
-                let level = |p: f64, upper: bool| match (p < 1.0, upper) {
-                    (true, true) => q(raw, p),
-                    (true, false) => q(raw, 1.0 - p),
-                    (false, true) => top + span,
-                    (false, false) => bottom - span,
-                };
-                for &pl in &probs {
-                    for &pu in &probs {
-                        let limits = (level(pl, false), level(pu, true));
-                        if (pl < 1.0 || pu < 1.0) && limits.1 > limits.0 {
+                let (below, above) = (bottom - span, top + span);
+                for p in [0.8, 0.9, 0.95, 0.99, 0.997] {
+                    let (lo, hi) = (q(raw, 1.0 - p), q(raw, p));
+                    for limits in [(lo, hi), (lo, above), (below, hi)] {
+                        if limits.1 > limits.0 {
                             variants.push(with(&|l| l.saturation = Some(limits)));
                         }
                     }
                 }
+                // The refinement cannot bring back a limit that clips nothing: when the best
+                // is one-sided, the other limit is tried at each level too.
+                let best = best_grid(ctx, grid, variants, &free)?;
+                let Some((lo, hi)) = best.model.inputs[j].law.saturation else {
+                    return Some((best, added));
+                };
+                let mut others = Vec::new();
+                for p in [0.8, 0.9, 0.95, 0.99, 0.997] {
+                    let limits = if lo <= below {
+                        (q(raw, 1.0 - p), hi)
+                    } else if hi >= above {
+                        (lo, q(raw, p))
+                    } else {
+                        continue;
+                    };
+                    if limits.1 > limits.0 {
+                        others.push(with(&|l| l.saturation = Some(limits)));
+                    }
+                }
+                let other = best_grid(ctx, grid, others, &free);
+                return Some(match other {
+                    Some(o) if o.sse_fit < best.sse_fit => (o, added),
+                    _ => (best, added),
+                });
             }
             EffectKind::Backlash => {
                 // Half gaps at quantiles of the input's distance from its median (scale
