@@ -858,11 +858,10 @@ fn fit_candidate(
                 }
             }
             _ => {
-                // Rates at high quantiles of the input's rate in its signal band (the raw
-                // input's sample-to-sample rate is mostly its noise), up to the rarest
+                // Rates at high quantiles of the input's rate, filtered like the states (the
+                // raw input's sample-to-sample rate is mostly its noise), up to the rarest
                 // events (bumps).
-                let smooth = signal::lowpass_zero_phase(raw, st.fc_hz, st.dt);
-                let d = signal::derivative(&smooth, st.dt);
+                let d = signal::derivative(&u[j], st.dt);
                 let a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
                 for p in [0.7, 0.9, 0.97, 0.99, 0.997, 0.999] {
                     let l = q(&a, p);
@@ -998,9 +997,8 @@ fn fit_candidate(
             };
             return Some((refined, added));
         }
-        EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => {
-            unreachable!("input effects are handled above")
-        }
+        // Input effects are fitted above; none of them attaches to an element.
+        EffectKind::InputDelay | EffectKind::RateLimit | EffectKind::Saturation => return None,
     }
     best_grid(ctx, grid, variants, &free).map(|f| (f, added))
 }
@@ -1599,8 +1597,8 @@ pub fn diagnose_with_progress(
         let chosen = if oe {
             // The best few by the equation error are each refined by output error and must
             // pay off in simulation on the validation blocks; the best of them by the
-            // criterion is taken (so a candidate the equation error ranks first but simulation does not
-            // confirm does not end the search).
+            // criterion is taken (so a candidate the equation error ranks first but
+            // simulation does not confirm does not end the search).
             ranked.truncate(SELECTION_BRANCHES);
             log(
                 0.15 + 0.7 * (round as f64 + 0.5) / rounds,
@@ -1806,10 +1804,14 @@ pub fn diagnose_with_progress(
         );
         (ee_gap(model), ee_gap(&recal_model), ee_gap(&updated), None)
     };
-    // A saturation limit the record never reaches is reported at the input's extreme (the
-    // limit is there or beyond; the record cannot say where).
+    // A named saturation's limit the record never reaches is reported at the input's
+    // extreme (the limit is there or beyond; the record cannot say where). A saturation the
+    // model file gave is left as it was.
     for (j, inp) in updated.inputs.iter_mut().enumerate() {
-        let Some((lo, hi)) = inp.law.saturation else {
+        let named_here = named
+            .iter()
+            .any(|n| n.named.effect == EffectKind::Saturation && n.named.element == inp.name);
+        let Some((lo, hi)) = inp.law.saturation.filter(|_| named_here) else {
             continue;
         };
         let raw = &st.inputs_raw[j];

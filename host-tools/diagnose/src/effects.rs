@@ -522,6 +522,14 @@ impl InputLaw {
                 self.rate_limit = Some(r);
             }
             EffectKind::Saturation => {
+                let has = |k: &str| reader.map.contains_key(k);
+                if has("limit") && (has("lower_limit") || has("upper_limit")) {
+                    return Err(Error::Model(
+                        "saturation: give limit (symmetric) or lower_limit and upper_limit, \
+                         not both"
+                            .into(),
+                    ));
+                }
                 let limits = match reader.opt("limit")? {
                     Some(l) => {
                         reader.check(l > 0.0, "limit", l, "> 0")?;
@@ -534,17 +542,6 @@ impl InputLaw {
                         (lo, hi)
                     }
                 };
-                if reader.map.contains_key("limit")
-                    && (reader.map.contains_key("lower_limit")
-                        || reader.map.contains_key("upper_limit"))
-                {
-                    return Err(Error::Model(
-                        "saturation: give limit (symmetric) or lower_limit and upper_limit, \
-                         not both"
-                            .into(),
-                    ));
-                }
-                reader.used.extend(["lower_limit", "upper_limit"]);
                 self.saturation = Some(limits);
             }
             EffectKind::Backlash => {

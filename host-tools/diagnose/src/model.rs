@@ -528,24 +528,22 @@ impl Model {
             other => other,
         };
         let on_input = self.is_input(&fx.element);
-        if on_input && !fx.effect.fits_input() || !on_input && !fx.effect.fits_element() {
-            let (is, other) = if on_input {
-                ("an input", "an element")
-            } else {
-                ("not an input", "an input")
-            };
-            let exists = on_input || self.elements.iter().any(|e| e.name == fx.element);
-            return Err(Error::Model(if exists {
-                format!(
-                    "effect {}: {:?} is {is}; {} attaches to {other}",
-                    fx.effect, fx.element, fx.effect
-                )
-            } else {
-                format!(
-                    "effect {}: {:?} is neither an element nor an input",
-                    fx.effect, fx.element
-                )
-            }));
+        if !on_input && !self.elements.iter().any(|e| e.name == fx.element) {
+            return Err(Error::Model(format!(
+                "effect {}: {:?} is neither an element nor an input",
+                fx.effect, fx.element
+            )));
+        }
+        let (fits, is, other) = if on_input {
+            (fx.effect.fits_input(), "an input", "an element")
+        } else {
+            (fx.effect.fits_element(), "an element", "an input")
+        };
+        if !fits {
+            return Err(Error::Model(format!(
+                "effect {}: {:?} is {is}; {} attaches to {other}",
+                fx.effect, fx.element, fx.effect
+            )));
         }
         if on_input {
             let inp = self
