@@ -31,8 +31,10 @@
 //!    the linear parameters free) and must pay off on the validation blocks' simulated
 //!    outputs: the same criterion against the current stage, and a practical margin — on
 //!    some output the sum of squares removed reaches [`PRACTICAL_MARGIN`] times that
-//!    output's measurement noise ([`signal::noise_std`]). Of the confirmed ones, the one
-//!    that explains the most is named; the search goes on (greedy forward selection) until
+//!    output's measurement noise ([`signal::noise_std`]). Of the confirmed ones, the best by
+//!    the criterion is named, unless one with fewer parameters is within two standard
+//!    errors of it (two forms that explain the record equally well: the simpler is named);
+//!    the search goes on (greedy forward selection) until
 //!    no candidate is confirmed or `max_effects` are named. A backward elimination then
 //!    removes any effect whose removal (the rest refined by output error) does not fail the
 //!    same test, or whose strength (e.g. `k3`, a friction force, a gap; see `strength`) is
@@ -575,17 +577,25 @@ impl Context<'_> {
     /// physical range is held at its bound and the rest fitted again ([`Fit::bounded`]).
     fn fit(&self, model: Model, free: &[Coef]) -> Fit {
         let held = model.clone();
-        self.fit_bounded(model, free.to_vec(), &held)
+        self.fit_bounded(model, free.to_vec(), &held, false)
+    }
+
+    /// [`Context::fit`] for ranking structures: the same coefficients and fitting sum of
+    /// squares, without the validation residuals and the covariance (`sse_val`, `tau` and
+    /// `covariance` are NaN, `val_rows` 0).
+    fn rank(&self, model: Model, free: &[Coef]) -> Fit {
+        let held = model.clone();
+        self.fit_bounded(model, free.to_vec(), &held, true)
     }
 
     /// The active set of [`Context::fit`]: fits, holds the coefficient that leaves its range
     /// furthest (relative to its value in `held`, the model given) at its bound, and fits
     /// the rest again, until every free coefficient is in range. Holding one coefficient
     /// moves the others, so one at a time.
-    fn fit_bounded(&self, mut model: Model, mut free: Vec<Coef>, held: &Model) -> Fit {
+    fn fit_bounded(&self, mut model: Model, mut free: Vec<Coef>, held: &Model, rank: bool) -> Fit {
         let mut bounded = Vec::new();
         loop {
-            let f = self.fit_unbounded(model.clone(), &free);
+            let f = self.fit_unbounded(model.clone(), &free, rank);
             let worst = f
                 .free
                 .iter()
@@ -608,8 +618,8 @@ impl Context<'_> {
         }
     }
 
-    /// [`Context::fit`] without the physical bounds.
-    fn fit_unbounded(&self, mut model: Model, free: &[Coef]) -> Fit {
+    /// [`Context::fit`] (or with `rank`, [`Context::rank`]) without the physical bounds.
+    fn fit_unbounded(&self, mut model: Model, free: &[Coef], rank: bool) -> Fit {
         let passes = if model.elements.iter().any(|e| e.law.lift_off.is_some()) {
             3
         } else {
@@ -626,7 +636,11 @@ impl Context<'_> {
             }
             used = keys;
             let sys = equation::build(&model, self.st, free, &self.weights);
-            let sol = sys.solve(|t| self.is_fit(t));
+            let sol = if rank {
+                sys.solve_ranking(|t| self.is_fit(t))
+            } else {
+                sys.solve(|t| self.is_fit(t))
+            };
             for (c, v) in free.iter().zip(&sol.theta) {
                 c.set(&mut model, *v);
             }
@@ -635,6 +649,18 @@ impl Context<'_> {
         let Some((sys, sol)) = last else {
             unreachable!("at least one pass")
         };
+        if rank {
+            return Fit {
+                free: free.to_vec(),
+                covariance: sol.covariance,
+                sse_fit: sol.sse,
+                sse_val: f64::NAN,
+                val_rows: 0,
+                tau: f64::NAN,
+                model,
+                bounded: Vec::new(),
+            };
+        }
         let val = if sol.sse.is_finite() {
             sys.residuals(&sol.theta, |t| self.is_val(t))
         } else {
@@ -987,13 +1013,15 @@ fn fit_candidate(
                 free.push(Coef::K(e));
             }
             let on = grid.unwrap_or(ctx);
-            let best = best_of(on, variants, &free)?;
+            let best = best_ranked(on, variants, &free)?;
             // Local refinement of (ln β, γ/β) by a shrinking pattern search.
-            let refined = refine_hysteresis(on, best, &free, e);
+            let (refined, given) = refine_hysteresis(on, best, &free, e);
+            // Fitted on every fitting block from the grid's estimate, or (ranked there
+            // already) fitted again as given for its validation and covariance.
             let refined = if grid.is_some() {
                 ctx.fit(refined.model, &free)
             } else {
-                refined
+                ctx.fit(given, &free)
             };
             return Some((refined, added));
         }
@@ -1015,7 +1043,7 @@ fn best_grid(
         Some(g) if variants.len() > GRID_FINALISTS => {
             let mut ranked: Vec<Fit> = variants
                 .into_iter()
-                .map(|m| g.fit(m, free))
+                .map(|m| g.rank(m, free))
                 .filter(|f| f.sse_fit.is_finite())
                 .collect();
             ranked.sort_by(|a, b| a.sse_fit.total_cmp(&b.sse_fit));
@@ -1030,17 +1058,37 @@ fn best_grid(
     }
 }
 
-fn best_of(ctx: &Context<'_>, variants: Vec<Model>, free: &[Coef]) -> Option<Fit> {
-    variants
-        .into_iter()
-        .map(|m| ctx.fit(m, free))
-        .filter(|f| f.sse_fit.is_finite())
-        .min_by(|a, b| a.sse_fit.total_cmp(&b.sse_fit))
+fn best_of(ctx: &Context<'_>, mut variants: Vec<Model>, free: &[Coef]) -> Option<Fit> {
+    let best = if variants.len() == 1 {
+        variants.pop()?
+    } else {
+        best_ranked(ctx, variants, free)?.1
+    };
+    Some(ctx.fit(best, free)).filter(|f| f.sse_fit.is_finite())
 }
 
-fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) -> Fit {
+/// The best of `variants` ranked on `ctx` ([`Context::rank`]): its ranking fit and the
+/// variant as given (which [`Context::fit`] turns into the same fit, with its validation
+/// and covariance).
+fn best_ranked(ctx: &Context<'_>, variants: Vec<Model>, free: &[Coef]) -> Option<(Fit, Model)> {
+    variants
+        .into_iter()
+        .map(|m| (ctx.rank(m.clone(), free), m))
+        .filter(|(f, _)| f.sse_fit.is_finite())
+        .min_by(|a, b| a.0.sse_fit.total_cmp(&b.0.sse_fit))
+}
+
+/// A shrinking pattern search on (ln β, γ/β) of element `e`'s Bouc-Wen law from the
+/// ranked fit `best` (with the variant it was fitted from); returns the best ranked fit and
+/// the model it was fitted from.
+fn refine_hysteresis(
+    ctx: &Context<'_>,
+    (mut best, mut given): (Fit, Model),
+    free: &[Coef],
+    e: usize,
+) -> (Fit, Model) {
     let Some(bw) = best.model.elements[e].law.hysteresis else {
-        return best;
+        return (best, given);
     };
     let (mut lb, mut g) = (bw.beta.ln(), bw.gamma / bw.beta);
     let (mut slb, mut sg) = (0.5, 0.25);
@@ -1054,9 +1102,10 @@ fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) 
                 gamma: (g + dg) * beta,
                 ..bw
             });
-            let f = ctx.fit(m, free);
+            let f = ctx.rank(m.clone(), free);
             if f.sse_fit < best.sse_fit {
                 best = f;
+                given = m;
                 lb += dl;
                 g += dg;
                 improved = true;
@@ -1067,7 +1116,7 @@ fn refine_hysteresis(ctx: &Context<'_>, mut best: Fit, free: &[Coef], e: usize) 
             sg *= 0.5;
         }
     }
-    best
+    (best, given)
 }
 
 /// Candidates, the best by the equation-error criterion, that each round refines by output
@@ -1117,6 +1166,29 @@ impl Evaluation {
     fn n_eff(&self) -> f64 {
         (self.resid.len() as f64 / signal::correlation_time(&self.resid)).max(2.0)
     }
+}
+
+/// Standard error of `ln(SSE_a / SSE_b)` for two models evaluated on the same validation
+/// samples (delta method on the per-sample difference of the normalised squared residuals
+/// `e_a²/mean(e_a²) − e_b²/mean(e_b²)`, whose variance is inflated by its correlation
+/// time): how far apart two models' fits must be to tell them apart.
+fn log_ratio_std(a: &Evaluation, b: &Evaluation) -> f64 {
+    let n = a.resid.len().min(b.resid.len());
+    if n < 8 {
+        return f64::INFINITY;
+    }
+    let ms = |r: &[f64]| r[..n].iter().map(|v| v * v).sum::<f64>() / n as f64;
+    let (ma, mb) = (ms(&a.resid), ms(&b.resid));
+    if !(ma > 0.0 && mb > 0.0) {
+        return f64::INFINITY;
+    }
+    let d: Vec<f64> = a.resid[..n]
+        .iter()
+        .zip(&b.resid[..n])
+        .map(|(x, y)| x * x / ma - y * y / mb)
+        .collect();
+    let var = signal::std(&d).powi(2);
+    (var * signal::correlation_time(&d) / n as f64).sqrt()
 }
 
 /// Whether an effect pays off, and the figures that say so.
@@ -1617,7 +1689,7 @@ pub fn diagnose_with_progress(
                 },
                 |_, _| {},
             );
-            let mut best: Option<(usize, Model, Covariance, Evaluation)> = None;
+            let mut confirmed: Vec<(usize, Model, Covariance, Evaluation)> = Vec::new();
             for (i, r) in refined.into_iter().enumerate() {
                 let (_, _, fit, cand, added) = &ranked[i];
                 let what = format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand));
@@ -1644,23 +1716,55 @@ pub fn diagnose_with_progress(
                     },
                     verdict.text
                 ));
-                // Among the confirmed, the best by the criterion (a branch with more
-                // parameters must explain more to be preferred).
-                let score = |ev: &Evaluation, added: usize| match &cur_eval {
-                    Some(prev) => {
-                        let n_eff = prev.n_eff();
-                        n_eff * ev.total().ln() + added as f64 * n_eff.ln()
-                    }
-                    None => ev.total(),
-                };
-                if verdict.confirmed
-                    && best
-                        .as_ref()
-                        .is_none_or(|(j, _, _, b)| score(&ev, *added) < score(b, ranked[*j].4))
-                {
-                    best = Some((i, m, pc, ev));
+                if verdict.confirmed {
+                    confirmed.push((i, m, pc, ev));
                 }
             }
+            // Among the confirmed, the best by the criterion (a branch with more parameters
+            // must explain more to be preferred); then a confirmed branch with fewer
+            // parameters whose criterion is within two standard errors of it (the two
+            // explain the record equally well) is preferred, repeatedly.
+            let score = |ev: &Evaluation, added: usize| match &cur_eval {
+                Some(prev) => {
+                    let n_eff = prev.n_eff();
+                    n_eff * ev.total().ln() + added as f64 * n_eff.ln()
+                }
+                None => ev.total(),
+            };
+            let mut pick = (0..confirmed.len()).min_by(|&a, &b| {
+                let (ia, ib) = (confirmed[a].0, confirmed[b].0);
+                score(&confirmed[a].3, ranked[ia].4)
+                    .total_cmp(&score(&confirmed[b].3, ranked[ib].4))
+            });
+            while let (Some(w), Some(prev)) = (pick, &cur_eval) {
+                let (iw, ev_w) = (confirmed[w].0, &confirmed[w].3);
+                let simpler = (0..confirmed.len())
+                    .filter(|&c| {
+                        let (ic, ev_c) = (confirmed[c].0, &confirmed[c].3);
+                        ranked[ic].4 < ranked[iw].4
+                            && score(ev_c, ranked[ic].4) - score(ev_w, ranked[iw].4)
+                                < 2.0 * prev.n_eff() * log_ratio_std(ev_c, ev_w)
+                    })
+                    .min_by(|&a, &b| {
+                        let (ia, ib) = (confirmed[a].0, confirmed[b].0);
+                        score(&confirmed[a].3, ranked[ia].4)
+                            .total_cmp(&score(&confirmed[b].3, ranked[ib].4))
+                    });
+                match simpler {
+                    Some(c) => {
+                        notes.push(format!(
+                            "round {round}: {} on {:?} explains the record as well as {} on {:?} with fewer parameters (criteria within two standard errors): preferred",
+                            ranked[confirmed[c].0].3.kind,
+                            target_name(&ranked[confirmed[c].0].2.model, ranked[confirmed[c].0].3),
+                            ranked[iw].3.kind,
+                            target_name(&ranked[iw].2.model, ranked[iw].3),
+                        ));
+                        pick = Some(c);
+                    }
+                    None => break,
+                }
+            }
+            let best = pick.map(|w| confirmed.swap_remove(w));
             best.map(|(i, m, pc, ev)| {
                 cur_eval = Some(ev);
                 updated = m;
@@ -2048,13 +2152,21 @@ pub const MAX_SUBSTEP_GROWTH: usize = 4;
 /// The least cap on a trial's integration steps per sample, whatever the start needs: 8.
 pub const MIN_SUBSTEP_CAP: usize = 8;
 
+/// The output-error refinement's coarse stage scores this fraction's inverse of its
+/// budget: 4 (a quarter of [`REFINE_EFFECTIVE_SAMPLES`]; the fine stage then needs one to
+/// three iterations).
+pub const REFINE_COARSE_SHARE: f64 = 4.0;
+
 /// Levenberg–Marquardt on the simulated outputs at the fitting blocks' samples; the
 /// parameters are the linear coefficients `free` and the effects' other parameters. The
 /// whole record is simulated when its fitting blocks hold at most
 /// [`REFINE_EFFECTIVE_SAMPLES`] effectively independent samples per output (judged on the
 /// start model's residual); a longer record is simulated in [`REFINE_WINDOWS`] windows
 /// spread over it that together hold that many, each started from the estimated states at
-/// its start and scored after its first fifth. Returns the refined model and the parameters
+/// its start and scored after its first fifth. When a quarter of that budget
+/// ([`REFINE_COARSE_SHARE`]) holds less than the fine stage, the iterations run first on
+/// windows of that quarter and then on the full data from there. Returns the refined model
+/// and the parameters
 /// with their covariance (σ² (JᵀJ)⁻¹ inflated by the residual's correlation time), or `None`
 /// if the start diverges.
 fn refine_output_error(
@@ -2091,105 +2203,130 @@ fn refine_output_error(
     // convergence test.
     let tau0 = equation::correlation_time_rows(&start, 1);
     let budget = REFINE_EFFECTIVE_SAMPLES * tau0;
-    let windows: Vec<Window> = if (fit_idx.len() as f64) <= budget {
-        whole
-    } else {
+    // The whole record when its fitting blocks hold at most `budget` samples, else the
+    // windows that together hold that many.
+    let windows_for = |budget: f64| -> Option<Vec<Window>> {
+        if (fit_idx.len() as f64) <= budget {
+            return None;
+        }
         let share = fit_idx.len() as f64 / len as f64;
         let wl = ((budget / share / REFINE_WINDOWS as f64 * 1.25).ceil() as usize).min(len);
-        (0..REFINE_WINDOWS)
-            .map(|k| {
-                let s0 = k * (len - wl) / (REFINE_WINDOWS - 1);
-                let q: Vec<f64> = on.st.q.iter().map(|x| x[s0]).collect();
-                let qd: Vec<f64> = on.st.qd.iter().map(|x| x[s0]).collect();
-                let from = if s0 == 0 { 0 } else { s0 + wl / 5 };
-                (s0..s0 + wl, q, qd, from)
-            })
-            .collect()
+        Some(
+            (0..REFINE_WINDOWS)
+                .map(|k| {
+                    let s0 = k * (len - wl) / (REFINE_WINDOWS - 1);
+                    let q: Vec<f64> = on.st.q.iter().map(|x| x[s0]).collect();
+                    let qd: Vec<f64> = on.st.qd.iter().map(|x| x[s0]).collect();
+                    let from = if s0 == 0 { 0 } else { s0 + wl / 5 };
+                    (s0..s0 + wl, q, qd, from)
+                })
+                .collect(),
+        )
     };
+    // A coarse stage on a quarter of the budget first, when that is less than the fine
+    // stage's data: most iterations then cost a quarter, and the fine stage starts
+    // converged or nearly so.
+    let coarse = windows_for(budget / REFINE_COARSE_SHARE);
+    let fine = windows_for(budget).unwrap_or(whole);
     // A trial that needs many more integration steps than the start is a new fast mode (a
     // mass collapsing, a stiffness exploding), not a local refinement: refused.
     let max_substeps =
         (MAX_SUBSTEP_GROWTH * simulate::substeps(model, record.dt)).max(MIN_SUBSTEP_CAP);
-    let residual = |m: &Model| {
+    let residual = |m: &Model, windows: &[Window]| {
         if simulate::substeps(m, record.dt) > max_substeps {
             return None;
         }
-        residual_on(m, &windows)
+        residual_on(m, windows)
     };
-    let mut r = residual(model)?;
     let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let mut m = model.clone();
-    let mut c = cost(&r);
-    let mut lambda = 1e-3;
-    let mut jac = DMatrix::<f64>::zeros(r.len(), p);
-    for _ in 0..25 {
-        // Jacobian by forward differences, one simulation per parameter, in parallel.
-        let columns = parallel::map(
-            &params,
-            threads,
-            |par| {
-                let v = par.get(&m);
-                let h = 1e-5 * v.abs().max(1e-9);
+    // Levenberg–Marquardt from `m` on `windows`: the model, its residual, cost and last
+    // Jacobian.
+    let lm = |mut m: Model, windows: &[Window]| -> Option<(Model, Vec<f64>, f64, DMatrix<f64>)> {
+        let mut r = residual(&m, windows)?;
+        let mut c = cost(&r);
+        let mut lambda = 1e-3;
+        let mut jac = DMatrix::<f64>::zeros(r.len(), p);
+        for _ in 0..25 {
+            // Jacobian by forward differences, one simulation per parameter, in parallel.
+            let columns = parallel::map(
+                &params,
+                threads,
+                |par| {
+                    let v = par.get(&m);
+                    let h = 1e-5 * v.abs().max(1e-9);
+                    let mut mm = m.clone();
+                    let ok = par.set(&mut mm, v + h);
+                    let rk = if ok { residual(&mm, windows) } else { None };
+                    (rk, h)
+                },
+                |_, _| {},
+            );
+            for (k, (rk, h)) in columns.into_iter().enumerate() {
+                match rk {
+                    Some(rk) => {
+                        for (i, (a, b)) in rk.iter().zip(&r).enumerate() {
+                            jac[(i, k)] = (a - b) / h;
+                        }
+                    }
+                    None => {
+                        for i in 0..r.len() {
+                            jac[(i, k)] = 0.0;
+                        }
+                    }
+                }
+            }
+            let jtj = jac.transpose() * &jac;
+            let jtr = jac.transpose() * DVector::from_column_slice(&r);
+            let mut improved = false;
+            for _try in 0..6 {
+                let mut a = jtj.clone();
+                for k in 0..p {
+                    a[(k, k)] += lambda * jtj[(k, k)].max(1e-300);
+                }
+                let Some(step) = a.clone().cholesky().map(|ch| ch.solve(&(-&jtr))) else {
+                    lambda *= 10.0;
+                    continue;
+                };
                 let mut mm = m.clone();
-                let ok = par.set(&mut mm, v + h);
-                let rk = if ok { residual(&mm) } else { None };
-                (rk, h)
-            },
-            |_, _| {},
-        );
-        for (k, (rk, h)) in columns.into_iter().enumerate() {
-            match rk {
-                Some(rk) => {
-                    for (i, (a, b)) in rk.iter().zip(&r).enumerate() {
-                        jac[(i, k)] = (a - b) / h;
+                let ok = params
+                    .iter()
+                    .enumerate()
+                    .all(|(k, par)| par.set(&mut mm, par.get(&m) + step[k]));
+                let trial = if ok { residual(&mm, windows) } else { None };
+                match trial {
+                    Some(rt) if cost(&rt) < c => {
+                        let rel = (c - cost(&rt)) / c;
+                        let c_before = c;
+                        m = mm;
+                        r = rt;
+                        c = cost(&r);
+                        lambda = (lambda / 3.0).max(1e-9);
+                        // Converged when the step moved the parameters by less than a
+                        // tenth of a standard error: a cost decrease `δᵀJᵀJδ` below
+                        // 0.01 σ² τ.
+                        let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
+                        improved = rel > 1e-7 && c_before - c > 0.01 * sigma2 * tau0;
+                        break;
                     }
-                }
-                None => {
-                    for i in 0..r.len() {
-                        jac[(i, k)] = 0.0;
-                    }
+                    _ => lambda *= 4.0,
                 }
             }
-        }
-        let jtj = jac.transpose() * &jac;
-        let jtr = jac.transpose() * DVector::from_column_slice(&r);
-        let mut improved = false;
-        for _try in 0..6 {
-            let mut a = jtj.clone();
-            for k in 0..p {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-300);
-            }
-            let Some(step) = a.clone().cholesky().map(|ch| ch.solve(&(-&jtr))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut mm = m.clone();
-            let ok = params
-                .iter()
-                .enumerate()
-                .all(|(k, par)| par.set(&mut mm, par.get(&m) + step[k]));
-            let trial = if ok { residual(&mm) } else { None };
-            match trial {
-                Some(rt) if cost(&rt) < c => {
-                    let rel = (c - cost(&rt)) / c;
-                    let c_before = c;
-                    m = mm;
-                    r = rt;
-                    c = cost(&r);
-                    lambda = (lambda / 3.0).max(1e-9);
-                    // Converged when the step moved the parameters by less than a tenth of
-                    // a standard error: a cost decrease `δᵀJᵀJδ` below 0.01 σ² τ.
-                    let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
-                    improved = rel > 1e-7 && c_before - c > 0.01 * sigma2 * tau0;
-                    break;
-                }
-                _ => lambda *= 4.0,
+            if !improved {
+                break;
             }
         }
-        if !improved {
-            break;
-        }
-    }
+        Some((m, r, c, jac))
+    };
+    let start = match &coarse {
+        // A coarse stage that diverges leaves the fine stage to start from the given model.
+        Some(w) => lm(model.clone(), w).map_or_else(|| model.clone(), |(m, ..)| m),
+        None => model.clone(),
+    };
+    let (m, r, c, jac) = match lm(start, &fine) {
+        Some(done) => done,
+        None if coarse.is_some() => lm(model.clone(), &fine)?,
+        None => return None,
+    };
     // Covariance with the columns scaled to unit norm (parameters of very different
     // magnitudes), then unscaled.
     let d: Vec<f64> = (0..p)
@@ -2214,6 +2351,41 @@ fn refine_output_error(
         .map(|inv| DMatrix::from_fn(p, p, |a, b| inv[(a, b)] * d[a] * d[b] * sigma2 * tau))
         .unwrap_or_else(|_| DMatrix::zeros(p, p));
     Some((m, (params, cov)))
+}
+
+#[cfg(test)]
+mod selection_tests {
+    use super::*;
+
+    fn evaluation(resid: Vec<f64>) -> Evaluation {
+        Evaluation {
+            sse: vec![resid.iter().map(|v| v * v).sum()],
+            resid,
+        }
+    }
+
+    /// Two models with independent white residuals of equal variance: the per-sample
+    /// difference `a² − b²` has variance 4 (unit variance each), so the log ratio of their
+    /// sums of squares has a standard error of `2/√n`.
+    #[test]
+    fn log_ratio_std_is_that_of_independent_white_residuals() {
+        let n = 20_000;
+        let mut rng = mil_rig::rng::SplitMix64::new(23u64);
+        let mut normal = || {
+            // Box–Muller.
+            let (u, v) = (rng.uniform().max(1e-300), rng.uniform());
+            (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+        };
+        let a = evaluation((0..n).map(|_| normal()).collect());
+        let b = evaluation((0..n).map(|_| 3.0 * normal()).collect());
+        let got = log_ratio_std(&a, &b);
+        let want = 2.0 / (n as f64).sqrt();
+        assert!((got / want - 1.0).abs() < 0.1, "{got} vs {want}");
+        // One model against itself: nothing tells them apart, no spread.
+        assert!(log_ratio_std(&a, &a) < 1e-12);
+        // Too few samples: no claim.
+        assert!(log_ratio_std(&evaluation(vec![1.0; 4]), &evaluation(vec![2.0; 4])).is_infinite());
+    }
 }
 
 #[cfg(test)]

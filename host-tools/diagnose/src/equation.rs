@@ -932,22 +932,46 @@ impl System {
     /// Least squares on the rows whose sample index satisfies `use_row` (column-scaled
     /// normal equations solved by SVD; a column that is all zero gets 0).
     pub fn solve(&self, use_row: impl Fn(usize) -> bool) -> Solution {
+        self.solve_with(use_row, true)
+    }
+
+    /// [`System::solve`] without the covariance (all NaN): the estimate and its sum of
+    /// squares, for ranking structures (the residual's correlation time is not needed).
+    pub fn solve_ranking(&self, use_row: impl Fn(usize) -> bool) -> Solution {
+        self.solve_with(use_row, false)
+    }
+
+    fn solve_with(&self, use_row: impl Fn(usize) -> bool, covariance: bool) -> Solution {
         let p = self.free.len();
         let idx: Vec<usize> = (0..self.rhs.len())
             .filter(|&r| use_row(self.sample[r]))
             .collect();
+        // The used rows gathered into contiguous columns; each entry of the normal
+        // equations is then one pass over two columns (a row whose first factor is zero
+        // adds nothing, as a non-finite second factor must not).
+        let gather = |c: &[f64]| -> Vec<f64> { idx.iter().map(|&r| c[r]).collect() };
+        let cols: Vec<Vec<f64>> = self.columns.iter().map(|c| gather(c)).collect();
+        let rhs = gather(&self.rhs);
+        let dot = |x: &[f64], y: &[f64]| {
+            // Four interleaved partial sums (the additions no longer wait on each other).
+            let term = |a: f64, b: f64| if a == 0.0 { 0.0 } else { a * b };
+            let mut acc = [0.0; 4];
+            let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
+            let (xr, yr) = (xc.remainder(), yc.remainder());
+            for (a, b) in xc.zip(yc) {
+                for k in 0..4 {
+                    acc[k] += term(a[k], b[k]);
+                }
+            }
+            let tail: f64 = xr.iter().zip(yr).map(|(a, b)| term(*a, *b)).sum();
+            (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+        };
         let mut ata = DMatrix::<f64>::zeros(p, p);
         let mut atb = DVector::<f64>::zeros(p);
-        for &r in &idx {
-            for a in 0..p {
-                let ca = self.columns[a][r];
-                if ca == 0.0 {
-                    continue;
-                }
-                atb[a] += ca * self.rhs[r];
-                for b in a..p {
-                    ata[(a, b)] += ca * self.columns[b][r];
-                }
+        for a in 0..p {
+            atb[a] = dot(&cols[a], &rhs);
+            for b in a..p {
+                ata[(a, b)] = dot(&cols[a], &cols[b]);
             }
         }
         for a in 0..p {
@@ -982,8 +1006,19 @@ impl System {
             .unwrap_or_else(|_| DMatrix::zeros(p, p));
         let y = &pinv * sb;
         let theta: Vec<f64> = (0..p).map(|a| y[a] * scale[a]).collect();
-        let res: Vec<f64> = idx.iter().map(|&r| self.residual(r, &theta)).collect();
+        let mut res = rhs;
+        for (c, t) in cols.iter().zip(&theta) {
+            res.iter_mut().zip(c).for_each(|(r, x)| *r -= x * t);
+        }
         let sse: f64 = res.iter().map(|v| v * v).sum();
+        if !covariance {
+            return Solution {
+                theta,
+                covariance: DMatrix::from_element(p, p, f64::NAN),
+                sse,
+                rows: idx.len(),
+            };
+        }
         let dofs = self.dof.iter().copied().max().map_or(1, |m| m + 1);
         let tau = correlation_time_rows(&res, dofs);
         let sigma2 = sse / (idx.len().saturating_sub(p).max(1)) as f64;
@@ -1100,6 +1135,38 @@ mod tests {
         let err = err.to_string();
         assert!(err.contains("`x_u`") && !err.contains("`x_s`"), "{err}");
         assert!(err.contains("displacement or acceleration"), "{err}");
+    }
+
+    #[test]
+    fn the_ranking_solve_is_the_full_solve_without_covariance() {
+        let (model, rec) = oscillator();
+        let st = estimate_states(&model, &rec).expect("states");
+        let free = [Coef::Mass(0), Coef::K(0), Coef::C(0)];
+        let sys = build(&model, &st, &free, &[1.0]);
+        let use_row = |t: usize| t % 3 != 0;
+        let full = sys.solve(use_row);
+        let rank = sys.solve_ranking(use_row);
+        assert_eq!(full.theta, rank.theta);
+        assert_eq!(full.sse, rank.sse);
+        assert_eq!(full.rows, rank.rows);
+        assert!(full.covariance.iter().all(|v| v.is_finite()));
+        assert!(rank.covariance.iter().all(|v| v.is_nan()));
+        // The estimate is the least-squares one: its sum of squares is that of its
+        // residuals, and a nudge of any coefficient makes it larger.
+        let rows: Vec<usize> = (0..sys.rhs.len())
+            .filter(|&r| use_row(sys.sample[r]))
+            .collect();
+        let sse = |th: &[f64]| {
+            rows.iter()
+                .map(|&r| sys.residual(r, th).powi(2))
+                .sum::<f64>()
+        };
+        assert!((sse(&full.theta) - full.sse).abs() <= 1e-9 * full.sse);
+        for k in 0..free.len() {
+            let mut th = full.theta.clone();
+            th[k] *= 1.0 + 1e-3;
+            assert!(sse(&th) > full.sse, "coefficient {k}");
+        }
     }
 
     #[test]

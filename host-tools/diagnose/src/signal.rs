@@ -68,28 +68,45 @@ fn run_cascade<'a>(s: &[Biquad; 2], samples: impl Iterator<Item = &'a mut f64>, 
 /// above 0.49 of the sample rate returns the signal unchanged. The filter is linear in
 /// `x`.
 pub fn lowpass_zero_phase(x: &[f64], fc_hz: f64, dt: f64) -> Vec<f64> {
+    match lowpass_padded(x, fc_hz, dt) {
+        Some((mut y, pad)) => {
+            y.truncate(pad + x.len());
+            y.drain(..pad);
+            y
+        }
+        None => x.to_vec(),
+    }
+}
+
+/// [`lowpass_zero_phase`] of `x` at the sample indices `keep` only (each below `x.len()`):
+/// the same numbers, without the copy of the whole filtered signal.
+pub fn lowpass_zero_phase_at(x: &[f64], fc_hz: f64, dt: f64, keep: &[usize]) -> Vec<f64> {
+    match lowpass_padded(x, fc_hz, dt) {
+        Some((y, pad)) => keep.iter().map(|&t| y[pad + t]).collect(),
+        None => keep.iter().map(|&t| x[t]).collect(),
+    }
+}
+
+/// The forward-backward filtering of [`lowpass_zero_phase`] on `x` padded at both ends:
+/// `(padded result, pad)` (sample `t` of `x` at `pad + t`), or `None` when the signal is
+/// passed unchanged (fewer than 4 samples, or a cut-off at or above 0.49 of the rate).
+fn lowpass_padded(x: &[f64], fc_hz: f64, dt: f64) -> Option<(Vec<f64>, usize)> {
     let r = fc_hz * dt;
     if x.len() < 4 || r >= 0.49 {
-        return x.to_vec();
+        return None;
     }
     let sections = butterworth4(r.max(1e-6));
     let pad = ((3.0 / r) as usize).min(x.len() - 1);
     let n = x.len();
     let mut y = Vec::with_capacity(n + 2 * pad);
-    for i in (1..=pad).rev() {
-        y.push(2.0 * x[0] - x[i]);
-    }
+    y.extend((1..=pad).rev().map(|i| 2.0 * x[0] - x[i]));
     y.extend_from_slice(x);
-    for i in 1..=pad {
-        y.push(2.0 * x[n - 1] - x[n - 1 - i]);
-    }
+    y.extend((1..=pad).map(|i| 2.0 * x[n - 1] - x[n - 1 - i]));
     let first = y[0];
     run_cascade(&sections, y.iter_mut(), first);
     let last = y[y.len() - 1];
     run_cascade(&sections, y.iter_mut().rev(), last);
-    y.truncate(pad + n);
-    y.drain(..pad);
-    y
+    Some((y, pad))
 }
 
 /// A 128-bit fingerprint of a signal's exact bits (and its length and `salt`), as a key of
@@ -203,8 +220,7 @@ impl LowpassCache {
     }
 
     fn lowpass_kept(&self, x: &[f64]) -> Vec<f64> {
-        let y = lowpass_zero_phase(x, self.fc_hz, self.dt);
-        self.keep.iter().map(|&t| y[t]).collect()
+        lowpass_zero_phase_at(x, self.fc_hz, self.dt, &self.keep)
     }
 }
 
@@ -315,9 +331,9 @@ pub fn quantile(x: &[f64], p: f64) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
-    v.sort_by(f64::total_cmp);
     let i = ((v.len() - 1) as f64 * p.clamp(0.0, 1.0)).round() as usize;
-    v[i]
+    // The i-th order statistic by selection (linear time), as a full sort would give it.
+    *v.select_nth_unstable_by(i, f64::total_cmp).1
 }
 
 /// Frequency (Hz) below which the fraction `p` of the power of the mean-removed signal
@@ -458,6 +474,35 @@ pub fn correlation_time(r: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lowpass_at_kept_samples_is_the_full_lowpass_there() {
+        let mut rng = mil_rig::rng::SplitMix64::new(5u64);
+        let x: Vec<f64> = (0..5000).map(|_| rng.uniform() - 0.5).collect();
+        let full = lowpass_zero_phase(&x, 40.0, 1e-3);
+        let keep: Vec<usize> = (7..4990).step_by(5).collect();
+        let at = lowpass_zero_phase_at(&x, 40.0, 1e-3, &keep);
+        assert_eq!(at, keep.iter().map(|&t| full[t]).collect::<Vec<_>>());
+        // Passed unchanged above 0.49 of the rate, at the kept samples too.
+        assert_eq!(
+            lowpass_zero_phase_at(&x, 600.0, 1e-3, &[3, 9]),
+            vec![x[3], x[9]]
+        );
+    }
+
+    #[test]
+    fn quantile_is_the_nearest_rank_of_the_sorted_values() {
+        let mut rng = mil_rig::rng::SplitMix64::new(17u64);
+        let mut x: Vec<f64> = (0..1001).map(|_| rng.uniform()).collect();
+        x.push(f64::NAN);
+        let mut sorted: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+        sorted.sort_by(f64::total_cmp);
+        for p in [0.0, 0.03, 0.5, 0.9, 0.997, 1.0] {
+            let i = ((sorted.len() - 1) as f64 * p).round() as usize;
+            assert_eq!(quantile(&x, p), sorted[i], "p = {p}");
+        }
+        assert_eq!(quantile(&[], 0.5), 0.0);
+    }
 
     #[test]
     fn lowpass_passes_low_and_stops_high() {

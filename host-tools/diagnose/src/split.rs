@@ -34,6 +34,9 @@ pub struct Split {
     pub fraction: f64,
     /// Samples on each side of a block boundary that belong to neither part.
     pub guard: usize,
+    /// Per block (one past the last), whether it is a validation block: the per-sample
+    /// tests look it up instead of recomputing it.
+    validation_blocks: Vec<bool>,
 }
 
 impl Split {
@@ -42,18 +45,21 @@ impl Split {
     /// samples on each side of a boundary left out (at most a quarter of a block).
     pub fn new(len: usize, fraction: f64, min_block: usize, guard: usize) -> Self {
         let block = (len / BLOCKS).max(min_block).max(1);
+        let validation_blocks = (0..=len / block + 1)
+            .map(|b| ((b + 1) as f64 * fraction).floor() > (b as f64 * fraction).floor())
+            .collect();
         Self {
             len,
             block,
             fraction,
             guard: guard.min(block / 4),
+            validation_blocks,
         }
     }
 
-    /// Whether block `b` is a validation block.
+    /// Whether block `b` is a validation block (every `1/f`-th block, spread evenly).
     fn block_is_validation(&self, b: usize) -> bool {
-        let f = self.fraction;
-        ((b + 1) as f64 * f).floor() > (b as f64 * f).floor()
+        self.validation_blocks.get(b).copied().unwrap_or(false)
     }
 
     /// Whether sample `t` is within the guard of a boundary between parts.
