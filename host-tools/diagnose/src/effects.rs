@@ -457,6 +457,178 @@ impl ElementLaw {
     }
 }
 
+/// An [`ElementLaw`] unpacked for the simulation's inner loop (built once per run): the
+/// effects that are on as bits of one word, their parameters as plain numbers, so that an
+/// evaluation matches no `Option` (see [`CompiledLaw::force`] for how the effects are
+/// dispatched).
+///
+/// [`CompiledLaw::force`] and [`CompiledLaw::state_rate`] do the same floating-point
+/// operations in the same order as [`ElementLaw::force`] and [`ElementLaw::state_rate`]:
+/// the results are identical bit for bit (a test compares them on every set of effects).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CompiledLaw {
+    /// Bits of the effects that are on (the `Self::ON_*` constants).
+    on: u16,
+    /// [`ElementLaw::k`].
+    k: f64,
+    /// [`ElementLaw::c`].
+    c: f64,
+    /// [`ElementLaw::k_h`].
+    k_h: f64,
+    /// Bouc-Wen law (with [`Self::ON_HYSTERESIS`]).
+    bouc_wen: BoucWen,
+    /// Backlash half gap `b` (m).
+    backlash: f64,
+    /// `k3` (N/m³).
+    k3: f64,
+    /// `c_abs` (N·s/m).
+    c_abs: f64,
+    /// `c2` (N·s²/m²).
+    c2: f64,
+    /// Coulomb `F_c` (N) and `v_eps` (m/s).
+    coulomb: (f64, f64),
+    /// Compression-side stop `(gap, k_b)`.
+    bump: (f64, f64),
+    /// Extension-side stop `(rebound gap, k_b)`.
+    rebound: (f64, f64),
+    /// Lift-off preload `P` (N).
+    preload: f64,
+}
+
+impl CompiledLaw {
+    const ON_HYSTERESIS: u16 = 1;
+    const ON_BACKLASH: u16 = 1 << 1;
+    const ON_CUBIC: u16 = 1 << 2;
+    const ON_ASYMMETRIC: u16 = 1 << 3;
+    const ON_QUADRATIC: u16 = 1 << 4;
+    const ON_COULOMB: u16 = 1 << 5;
+    const ON_BUMP: u16 = 1 << 6;
+    const ON_REBOUND: u16 = 1 << 7;
+    const ON_LIFT_OFF: u16 = 1 << 8;
+
+    /// Unpacks `law`.
+    pub(crate) fn new(law: &ElementLaw) -> Self {
+        let mut on = 0;
+        let mut flag = |present: bool, bit: u16| {
+            if present {
+                on |= bit;
+            }
+        };
+        flag(law.hysteresis.is_some(), Self::ON_HYSTERESIS);
+        flag(law.backlash.is_some(), Self::ON_BACKLASH);
+        flag(law.k3.is_some(), Self::ON_CUBIC);
+        flag(law.c_abs.is_some(), Self::ON_ASYMMETRIC);
+        flag(law.c2.is_some(), Self::ON_QUADRATIC);
+        flag(law.coulomb.is_some(), Self::ON_COULOMB);
+        flag(law.bump.is_some(), Self::ON_BUMP);
+        flag(law.rebound.is_some(), Self::ON_REBOUND);
+        flag(law.lift_off.is_some(), Self::ON_LIFT_OFF);
+        Self {
+            on,
+            k: law.k,
+            c: law.c,
+            k_h: law.k_h,
+            bouc_wen: law.hysteresis.unwrap_or(BoucWen {
+                a: 0.0,
+                beta: 0.0,
+                gamma: 0.0,
+                n: 1.0,
+            }),
+            backlash: law.backlash.unwrap_or(0.0),
+            k3: law.k3.unwrap_or(0.0),
+            c_abs: law.c_abs.unwrap_or(0.0),
+            c2: law.c2.unwrap_or(0.0),
+            coulomb: law.coulomb.unwrap_or((0.0, 1.0)),
+            bump: law.bump.unwrap_or((0.0, 0.0)),
+            rebound: law.rebound.unwrap_or((0.0, 0.0)),
+            preload: law.lift_off.unwrap_or(0.0),
+        }
+    }
+
+    /// As [`ElementLaw::force`].
+    ///
+    /// A law with no effect or a single one (the fits' usual case) is evaluated by a copy
+    /// of [`Self::force_with`] with its effect set as a constant: straight-line code after
+    /// one multi-way jump, instead of a test per effect. Other sets test each bit.
+    #[inline(always)]
+    pub(crate) fn force(&self, x: f64, v: f64, z: f64) -> f64 {
+        macro_rules! dispatch {
+            ($($bit:path),*) => {
+                match self.on {
+                    0 => self.force_with(0, x, v, z),
+                    $($bit => self.force_with($bit, x, v, z),)*
+                    on => self.force_with(on, x, v, z),
+                }
+            };
+        }
+        dispatch!(
+            Self::ON_HYSTERESIS,
+            Self::ON_BACKLASH,
+            Self::ON_CUBIC,
+            Self::ON_ASYMMETRIC,
+            Self::ON_QUADRATIC,
+            Self::ON_COULOMB,
+            Self::ON_BUMP,
+            Self::ON_REBOUND,
+            Self::ON_LIFT_OFF
+        )
+    }
+
+    /// [`Self::force`] with the effects `on` (the bits of [`Self::on`]).
+    #[inline(always)]
+    fn force_with(&self, on: u16, x: f64, v: f64, z: f64) -> f64 {
+        let has = |bit: u16| on & bit != 0;
+        let xs = if has(Self::ON_BACKLASH) {
+            x - x.max(-self.backlash).min(self.backlash)
+        } else {
+            x
+        };
+        let mut f = self.k * xs + self.c * v;
+        if has(Self::ON_HYSTERESIS) {
+            f += self.k_h * z;
+        }
+        if has(Self::ON_CUBIC) {
+            f += self.k3 * xs * xs * xs;
+        }
+        if has(Self::ON_ASYMMETRIC) {
+            f += self.c_abs * v.abs();
+        }
+        if has(Self::ON_QUADRATIC) {
+            f += self.c2 * v * v.abs();
+        }
+        if has(Self::ON_COULOMB) {
+            let (fc, veps) = self.coulomb;
+            f += fc * (v / veps).tanh();
+        }
+        if has(Self::ON_BUMP) {
+            let (gap, kb) = self.bump;
+            f += kb * (x - gap).max(0.0);
+        }
+        if has(Self::ON_REBOUND) {
+            let (gap, kb) = self.rebound;
+            f += kb * (x + gap).min(0.0);
+        }
+        if has(Self::ON_LIFT_OFF) && self.preload + f < 0.0 {
+            return -self.preload;
+        }
+        f
+    }
+
+    /// As [`ElementLaw::state_rate`] (0 without hysteresis).
+    #[inline(always)]
+    pub(crate) fn state_rate(&self, x: f64, v: f64, z: f64) -> f64 {
+        if self.on & Self::ON_HYSTERESIS == 0 {
+            return 0.0;
+        }
+        let vs = if self.on & Self::ON_BACKLASH != 0 && x.abs() <= self.backlash {
+            0.0
+        } else {
+            v
+        };
+        self.bouc_wen.rate(vs, z)
+    }
+}
+
 /// Effects on an input (see the module documentation).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct InputLaw {
@@ -734,6 +906,64 @@ mod tests {
             .apply(EffectKind::BumpStop, &one)
             .unwrap_err();
         assert!(err.to_string().contains("both sides"), "{err}");
+    }
+
+    #[test]
+    fn compiled_law_matches_the_law_bit_for_bit() {
+        // Every set of element effects, at compressions and rates on both sides of each
+        // effect's thresholds (and at both zeros).
+        for set in 0u32..512 {
+            let on = |bit: u32| set & (1 << bit) != 0;
+            let mut law = ElementLaw::linear(2e4, 150.0);
+            if on(0) {
+                law.k = 1e4;
+                law.k_h = 1e4;
+                law.hysteresis = Some(BoucWen {
+                    a: 1.0,
+                    beta: 300.0,
+                    gamma: -50.0,
+                    n: if set % 3 == 0 { 1.0 } else { 1.7 },
+                });
+            }
+            if on(1) {
+                law.backlash = Some(2e-3);
+            }
+            if on(2) {
+                law.k3 = Some(3e8);
+            }
+            if on(3) {
+                law.c_abs = Some(-40.0);
+            }
+            if on(4) {
+                law.c2 = Some(80.0);
+            }
+            if on(5) {
+                law.coulomb = Some((25.0, 1e-2));
+            }
+            if on(6) {
+                law.bump = Some((5e-3, 2e5));
+            }
+            if on(7) {
+                law.rebound = Some((7e-3, 1e5));
+            }
+            if on(8) {
+                law.lift_off = Some(150.0);
+            }
+            let fast = CompiledLaw::new(&law);
+            for x in [
+                -0.02, -7.5e-3, -2e-3, -1e-4, -0.0, 0.0, 1e-4, 2e-3, 5.5e-3, 0.02,
+            ] {
+                for v in [-0.3, -0.01, -0.0, 0.0, 0.004, 0.5] {
+                    for z in [-3e-3, 0.0, 1e-3] {
+                        let at = format!("effects {set:#b}, x {x}, v {v}, z {z}");
+                        let (f, want) = (fast.force(x, v, z), law.force(x, v, z));
+                        assert_eq!(f.to_bits(), want.to_bits(), "force, {at}");
+                        let (r, want) = (fast.state_rate(x, v, z), law.state_rate(x, v, z));
+                        assert_eq!(r.to_bits(), want.to_bits(), "state rate, {at}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
