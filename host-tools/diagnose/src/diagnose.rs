@@ -32,8 +32,8 @@
 //!    outputs: the same criterion against the current stage, and a practical margin — on
 //!    some output the sum of squares removed reaches [`PRACTICAL_MARGIN`] times that
 //!    output's measurement noise ([`signal::noise_std`]). Of the confirmed ones, the best by
-//!    the criterion is named, unless one with fewer parameters is within two standard
-//!    errors of it (two forms that explain the record equally well: the simpler is named);
+//!    the criterion is named, unless one with fewer parameters is within
+//!    [`PARSIMONY_Z`] standard errors of it (two forms that explain the record equally well: the simpler is named);
 //!    the search goes on (greedy forward selection) until
 //!    no candidate is confirmed or `max_effects` are named. A backward elimination then
 //!    removes any effect whose removal (the rest refined by output error) does not fail the
@@ -978,8 +978,9 @@ fn fit_candidate(
         EffectKind::LiftOff => {
             // The preload must be exceeded by the element's tension somewhere.
             let law = &model.elements[e].law;
+            let unpacked = crate::effects::CompiledLaw::new(law);
             let tension: Vec<f64> = (0..sig[e].x.len())
-                .map(|t| -law.force_unclipped(sig[e].x[t], sig[e].v[t], sig[e].z[t]))
+                .map(|t| -unpacked.force_unclipped(sig[e].x[t], sig[e].v[t], sig[e].z[t]))
                 .collect();
             for p in [0.8, 0.9, 0.95, 0.98, 0.995] {
                 let pre = q(&tension, p);
@@ -1167,6 +1168,11 @@ impl Evaluation {
         (self.resid.len() as f64 / signal::correlation_time(&self.resid)).max(2.0)
     }
 }
+
+/// Standard errors (z) within which two confirmed branches' criteria count as equal, so
+/// that the one with fewer parameters is named: 2, the conventional two-sided 95 % level
+/// (not tuned to any record).
+pub const PARSIMONY_Z: f64 = 2.0;
 
 /// Standard error of `ln(SSE_a / SSE_b)` for two models evaluated on the same validation
 /// samples (delta method on the per-sample difference of the normalised squared residuals
@@ -1721,9 +1727,9 @@ pub fn diagnose_with_progress(
                 }
             }
             // Among the confirmed, the best by the criterion (a branch with more parameters
-            // must explain more to be preferred); then a confirmed branch with fewer
-            // parameters whose criterion is within two standard errors of it (the two
-            // explain the record equally well) is preferred, repeatedly.
+            // must explain more to be preferred); then, repeatedly, a confirmed branch with
+            // fewer parameters whose criterion is within PARSIMONY_Z standard errors of it
+            // (the two explain the record equally well).
             let score = |ev: &Evaluation, added: usize| match &cur_eval {
                 Some(prev) => {
                     let n_eff = prev.n_eff();
@@ -1731,38 +1737,34 @@ pub fn diagnose_with_progress(
                 }
                 None => ev.total(),
             };
-            let mut pick = (0..confirmed.len()).min_by(|&a, &b| {
-                let (ia, ib) = (confirmed[a].0, confirmed[b].0);
-                score(&confirmed[a].3, ranked[ia].4)
-                    .total_cmp(&score(&confirmed[b].3, ranked[ib].4))
-            });
+            // Per confirmed branch: (criterion, parameters added).
+            let scored: Vec<(f64, usize)> = confirmed
+                .iter()
+                .map(|(i, _, _, ev)| (score(ev, ranked[*i].4), ranked[*i].4))
+                .collect();
+            let best_among = |among: &mut dyn Iterator<Item = usize>| {
+                among.min_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0))
+            };
+            let mut pick = best_among(&mut (0..confirmed.len()));
             while let (Some(w), Some(prev)) = (pick, &cur_eval) {
-                let (iw, ev_w) = (confirmed[w].0, &confirmed[w].3);
-                let simpler = (0..confirmed.len())
-                    .filter(|&c| {
-                        let (ic, ev_c) = (confirmed[c].0, &confirmed[c].3);
-                        ranked[ic].4 < ranked[iw].4
-                            && score(ev_c, ranked[ic].4) - score(ev_w, ranked[iw].4)
-                                < 2.0 * prev.n_eff() * log_ratio_std(ev_c, ev_w)
-                    })
-                    .min_by(|&a, &b| {
-                        let (ia, ib) = (confirmed[a].0, confirmed[b].0);
-                        score(&confirmed[a].3, ranked[ia].4)
-                            .total_cmp(&score(&confirmed[b].3, ranked[ib].4))
-                    });
-                match simpler {
-                    Some(c) => {
-                        notes.push(format!(
-                            "round {round}: {} on {:?} explains the record as well as {} on {:?} with fewer parameters (criteria within two standard errors): preferred",
-                            ranked[confirmed[c].0].3.kind,
-                            target_name(&ranked[confirmed[c].0].2.model, ranked[confirmed[c].0].3),
-                            ranked[iw].3.kind,
-                            target_name(&ranked[iw].2.model, ranked[iw].3),
-                        ));
-                        pick = Some(c);
-                    }
-                    None => break,
-                }
+                let simpler = best_among(&mut (0..confirmed.len()).filter(|&c| {
+                    scored[c].1 < scored[w].1
+                        && scored[c].0 - scored[w].0
+                            < PARSIMONY_Z
+                                * prev.n_eff()
+                                * log_ratio_std(&confirmed[c].3, &confirmed[w].3)
+                }));
+                let Some(c) = simpler else { break };
+                let name = |k: usize| {
+                    let (_, _, fit, cand, _) = &ranked[confirmed[k].0];
+                    format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand))
+                };
+                notes.push(format!(
+                    "round {round}: {} explains the record as well as {} with fewer parameters (criteria within {PARSIMONY_Z} standard errors): preferred",
+                    name(c),
+                    name(w),
+                ));
+                pick = Some(c);
             }
             let best = pick.map(|w| confirmed.swap_remove(w));
             best.map(|(i, m, pc, ev)| {
@@ -2152,9 +2154,9 @@ pub const MAX_SUBSTEP_GROWTH: usize = 4;
 /// The least cap on a trial's integration steps per sample, whatever the start needs: 8.
 pub const MIN_SUBSTEP_CAP: usize = 8;
 
-/// The output-error refinement's coarse stage scores this fraction's inverse of its
-/// budget: 4 (a quarter of [`REFINE_EFFECTIVE_SAMPLES`]; the fine stage then needs one to
-/// three iterations).
+/// The output-error refinement's coarse stage scores `1 / REFINE_COARSE_SHARE` of its
+/// budget: 4, a quarter of [`REFINE_EFFECTIVE_SAMPLES`] (a compute trade-off: the coarse
+/// iterations cost a quarter, the fine stage starts near its optimum).
 pub const REFINE_COARSE_SHARE: f64 = 4.0;
 
 /// Levenberg–Marquardt on the simulated outputs at the fitting blocks' samples; the
@@ -2166,9 +2168,8 @@ pub const REFINE_COARSE_SHARE: f64 = 4.0;
 /// its start and scored after its first fifth. When a quarter of that budget
 /// ([`REFINE_COARSE_SHARE`]) holds less than the fine stage, the iterations run first on
 /// windows of that quarter and then on the full data from there. Returns the refined model
-/// and the parameters
-/// with their covariance (σ² (JᵀJ)⁻¹ inflated by the residual's correlation time), or `None`
-/// if the start diverges.
+/// and the parameters with their covariance (σ² (JᵀJ)⁻¹ inflated by the residual's
+/// correlation time), or `None` if the start diverges.
 fn refine_output_error(
     model: &Model,
     free: &[Coef],

@@ -460,6 +460,7 @@ pub fn hysteretic_state(
     v: &[f64],
     dt: f64,
 ) -> Vec<f64> {
+    let law = crate::effects::CompiledLaw::new(law);
     let mut z = vec![0.0; x.len()];
     let sub = 4;
     let h = dt / sub as f64;
@@ -749,6 +750,7 @@ fn contact_masks(
         .zip(sigs)
         .map(|(e, (_, s))| {
             e.law.lift_off.map(|p| {
+                let law = crate::effects::CompiledLaw::new(&e.law);
                 let (x, rest) = s.split_at(len);
                 let (v, z) = rest.split_at(len);
                 let m: Vec<f64> = x
@@ -756,7 +758,7 @@ fn contact_masks(
                     .zip(v)
                     .zip(z)
                     .map(|((&x, &v), &z)| {
-                        if p + e.law.force_unclipped(x, v, z) > 0.0 {
+                        if p + law.force_unclipped(x, v, z) > 0.0 {
                             1.0
                         } else {
                             0.0
