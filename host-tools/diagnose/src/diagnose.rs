@@ -620,8 +620,13 @@ impl Context<'_> {
 
     /// [`Context::fit`] (or with `rank`, [`Context::rank`]) without the physical bounds.
     fn fit_unbounded(&self, mut model: Model, free: &[Coef], rank: bool) -> Fit {
+        // The contact masks of lift-off iterated (at most three passes; two for ranking).
         let passes = if model.elements.iter().any(|e| e.law.lift_off.is_some()) {
-            3
+            if rank {
+                2
+            } else {
+                3
+            }
         } else {
             1
         };
@@ -811,12 +816,10 @@ fn fit_candidate(
     let sig = equation::element_signals(model, st, &u, &ud);
     // Quantiles over the whole record (less the filter transients): the grid values do not
     // depend on the record's order.
-    let len = st.q.first().map_or(0, Vec::len);
-    let range = st.edge..len.saturating_sub(st.edge).max(st.edge + 1);
     let e = cand.target;
     let mut variants: Vec<Model> = Vec::new();
     let mut added = 1;
-    let q = |s: &[f64], p: f64| signal::quantile(&s[range.clone()], p);
+    let q = |s: &[f64], p: f64| signal::quantile_of(st.interior(s), p);
     if cand.input {
         let j = cand.target;
         let raw = &st.inputs_raw[j];
@@ -908,7 +911,7 @@ fn fit_candidate(
         }
         EffectKind::CoulombFriction => {
             let mut m = model.clone();
-            let veps = (0.01 * signal::rms(&sig[e].v[range.clone()])).max(1e-12);
+            let veps = (0.01 * signal::rms(&st.interior(&sig[e].v))).max(1e-12);
             m.elements[e].law.coulomb = Some((0.0, veps));
             free.push(Coef::Fc(e));
             variants.push(m);
@@ -993,7 +996,7 @@ fn fit_candidate(
         }
         EffectKind::Hysteresis => {
             added = 3;
-            let sx = signal::std(&sig[e].x[range.clone()]).max(1e-300);
+            let sx = signal::std(&st.interior(&sig[e].x)).max(1e-300);
             for bs in [0.3, 1.0, 3.0, 10.0, 30.0] {
                 for gr in [-1.5, -0.75, 0.0, 0.5, 1.0] {
                     let beta = bs / sx;
@@ -1561,6 +1564,10 @@ pub fn diagnose_with_progress(
         split: &split,
         st: &st,
         initial: (&q0, &qd0),
+        noise: measured
+            .iter()
+            .map(|m| signal::noise_std(m, record.dt))
+            .collect(),
     };
     let threads = parallel::threads(options.threads);
     // The model each stage reaches, refined by output error where the model is restrained,
@@ -1572,8 +1579,8 @@ pub fn diagnose_with_progress(
     if oe {
         log(0.12, "output-error refinement of the recalibrated model");
         let start_eval = sim.evaluate(&recal_model);
-        if let Some((m, pc)) =
-            refine_output_error(&recal_model, &recal_fit.free, &refine_on, threads)
+        if let Ok((m, pc)) =
+            refine_output_error(&recal_model, &recal_fit.free, &refine_on, threads, None)
         {
             let ev = sim.evaluate(&m);
             let better = match (&ev, &start_eval) {
@@ -1588,6 +1595,43 @@ pub fn diagnose_with_progress(
         }
         cur_eval = sim.evaluate(&recal_model);
     }
+    // A long record's candidate search (equation error) runs on the middle of every block
+    // (see SELECTION_SAMPLES); the refinement and simulation use the whole record.
+    let blocks = split.len.div_ceil(split.block).max(1);
+    let warmup = SELECTION_WARMUP_EDGES * st.edge;
+    let core = SELECTION_SAMPLES / blocks;
+    let piece = core + warmup + st.edge;
+    let selection = (oe && core >= warmup && 2 * blocks * piece <= len).then(|| {
+        let (ranges, sub) = split.middles(piece);
+        (st.pieces(&ranges, warmup), sub)
+    });
+    let sctx = match &selection {
+        Some((s, sub)) => Context {
+            st: s,
+            weights: ctx.weights.clone(),
+            split: sub,
+            thin: 1,
+        },
+        None => Context {
+            st: &st,
+            weights: ctx.weights.clone(),
+            split: &split,
+            thin: 1,
+        },
+    };
+    let fit_rows = match &selection {
+        Some((s, sub)) => {
+            notes.push(format!(
+                "candidate effects ranked and fitted (equation error) on {} samples of the record: {piece} in the middle of each of its {} blocks, each piece filtered on its own, the first {} of each a warm-up",
+                sub.len,
+                sub.len / piece.max(1),
+                warmup.max(st.edge)
+            ));
+            current = sctx.fit(model.clone(), &free0);
+            s.cache.keep().iter().filter(|&&t| sub.is_fit(t)).count()
+        }
+        None => fit_rows,
+    };
     let mut updated = recal_model.clone();
     let mut named: Vec<NamedDetail> = Vec::new();
     let mut scores = Vec::new();
@@ -1602,9 +1646,9 @@ pub fn diagnose_with_progress(
             let needed = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0);
             let thin = ((fit_rows as f64 / needed).floor() as usize).min(MAX_THIN);
             (thin >= 2).then(|| Context {
-                st: &st,
+                st: sctx.st,
                 weights: ctx.weights.clone(),
-                split: &split,
+                split: sctx.split,
                 thin,
             })
         };
@@ -1619,7 +1663,7 @@ pub fn diagnose_with_progress(
         let mut fits: Vec<Option<(Fit, usize)>> = parallel::map(
             &work,
             threads,
-            |&i| fit_candidate(&ctx, grid_ctx.as_ref(), &current, cands[i]),
+            |&i| fit_candidate(&sctx, grid_ctx.as_ref(), &current, cands[i]),
             |w, fit| {
                 let i = work[w];
                 // Selection rounds share 0.15..0.85 of the work; later rounds may not happen.
@@ -1685,13 +1729,16 @@ pub fn diagnose_with_progress(
                     ranked.len()
                 ),
             );
+            // Each must gain on the model reached so far (when that simulates).
+            let beat = cur_eval.as_ref().map(|_| &updated);
             let refined = parallel::map(
                 &ranked,
                 threads,
                 |(_, _, fit, _, _)| {
-                    let (m, pc) = refine_output_error(&fit.model, &fit.free, &refine_on, threads)?;
-                    let ev = sim.evaluate(&m)?;
-                    Some((m, pc, ev))
+                    let (m, pc) =
+                        refine_output_error(&fit.model, &fit.free, &refine_on, threads, beat)?;
+                    let ev = sim.evaluate(&m).ok_or(Unrefined::Diverged)?;
+                    Ok((m, pc, ev))
                 },
                 |_, _| {},
             );
@@ -1699,11 +1746,20 @@ pub fn diagnose_with_progress(
             for (i, r) in refined.into_iter().enumerate() {
                 let (_, _, fit, cand, added) = &ranked[i];
                 let what = format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand));
-                let Some((m, pc, ev)) = r else {
-                    notes.push(format!(
-                        "round {round}: {what}: simulation diverged, not confirmed"
-                    ));
-                    continue;
+                let (m, pc, ev) = match r {
+                    Ok(done) => done,
+                    Err(Unrefined::Diverged) => {
+                        notes.push(format!(
+                            "round {round}: {what}: simulation diverged, not confirmed"
+                        ));
+                        continue;
+                    }
+                    Err(Unrefined::NoGain(why)) => {
+                        notes.push(format!(
+                            "round {round}: {what}: not confirmed by simulation (its refinement stopped after the coarse stage: {why})"
+                        ));
+                        continue;
+                    }
                 };
                 let verdict = match &cur_eval {
                     Some(prev) => sim.pays_off(prev, &ev, *added),
@@ -1822,10 +1878,12 @@ pub fn diagnose_with_progress(
                 .copied()
                 .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
                 .collect();
-            refine_output_error(&m_wo, &free_wo, &refine_on, threads).and_then(|(m2, pc)| {
-                let ev = sim.evaluate(&m2)?;
-                Some((m2, pc, ev, free_wo))
-            })
+            refine_output_error(&m_wo, &free_wo, &refine_on, threads, None)
+                .ok()
+                .and_then(|(m2, pc)| {
+                    let ev = sim.evaluate(&m2)?;
+                    Some((m2, pc, ev, free_wo))
+                })
         };
         // Every removal from the final model, refined concurrently; they stay valid until an
         // effect is dropped (which changes the model the rest start from).
@@ -2139,7 +2197,45 @@ struct RefineOn<'a> {
     st: &'a States,
     /// DOF positions and velocities at the record's first sample.
     initial: (&'a [f64], &'a [f64]),
+    /// Per output: the measurement noise's standard deviation ([`signal::noise_std`]).
+    noise: Vec<f64>,
 }
+
+/// Why [`refine_output_error`] returns no model.
+#[derive(Debug)]
+enum Unrefined {
+    /// The simulation of the start model diverges.
+    Diverged,
+    /// After the coarse stage, the candidate gains less than [`COARSE_MARGIN_SHARE`] of the
+    /// practical margin on the model it must beat (the reason, with the figure).
+    NoGain(String),
+}
+
+/// A candidate's output-error refinement stops after its coarse stage when, on the
+/// coarse windows' fitting samples it was fitted to, it removes less than this share of
+/// [`PRACTICAL_MARGIN`] times the measurement noise's sum of squares from every output
+/// compared with the model it must beat: 0.5. Its gain on the data it was fitted to is an
+/// optimistic estimate of its gain on the validation blocks, where it must reach the whole
+/// margin to be named; the share leaves room for the coarse windows being a sample of the
+/// record. (A compute saving: the fine stage of a candidate that cannot be named is not
+/// run.)
+pub const COARSE_MARGIN_SHARE: f64 = 0.5;
+
+/// Samples the candidate search runs on, about: 120 000 (two minutes at 1 kHz). A longer
+/// record whose model is refined by output error ranks and fits its candidate effects by
+/// equation error on the middle of each of its split blocks, together this many samples
+/// plus each piece's warm-up ([`SELECTION_WARMUP_EDGES`]), each piece filtered as a record
+/// of its own; the pieces keep their blocks' parts, so they span the record and its
+/// fitting and validation shares. The output-error refinement, the confirmation by
+/// simulation, the gaps and the reported recalibration use the whole record. (A compute
+/// budget: the candidates' ranking needs far fewer effectively independent samples than
+/// ten minutes of 1 kHz data hold.)
+pub const SELECTION_SAMPLES: usize = 120_000;
+
+/// Warm-up of each piece of the candidate search, in filter transients
+/// ([`equation::States::edge`], two cut-off periods each): 5. The input effects and the
+/// hysteretic states, integrated along the piece from its start, settle in it.
+pub const SELECTION_WARMUP_EDGES: usize = 5;
 
 /// Windows the output-error refinement simulates when the fitting blocks hold more than its
 /// budget ([`REFINE_EFFECTIVE_SAMPLES`]): 8, evenly spread over the record.
@@ -2175,7 +2271,8 @@ fn refine_output_error(
     free: &[Coef],
     on: &RefineOn<'_>,
     threads: usize,
-) -> Option<(Model, Covariance)> {
+    beat: Option<&Model>,
+) -> std::result::Result<(Model, Covariance), Unrefined> {
     let (record, measured, split) = (on.record, on.measured, on.split);
     let len = record.len();
     let mut params: Vec<Param> = free.iter().map(|c| Param::Lin(*c)).collect();
@@ -2199,7 +2296,7 @@ fn refine_output_error(
         Some(r)
     };
     let whole: Vec<Window> = vec![(0..len, on.initial.0.to_vec(), on.initial.1.to_vec(), 0)];
-    let start = residual_on(model, &whole)?;
+    let start = residual_on(model, &whole).ok_or(Unrefined::Diverged)?;
     // Correlation time of the start residual (samples): sets the budget and the
     // convergence test.
     let tau0 = equation::correlation_time_rows(&start, 1);
@@ -2318,15 +2415,57 @@ fn refine_output_error(
         }
         Some((m, r, c, jac))
     };
+    // Per output: the sum of squares of a residual of `residual_on` on `windows` and the
+    // samples it holds.
+    let by_output = |r: &[f64], windows: &[Window]| -> (Vec<f64>, usize) {
+        let mut sse = vec![0.0; measured.len()];
+        let (mut at, mut n) = (0, 0);
+        for (w, _, _, from) in windows {
+            let k = w.clone().filter(|&t| t >= *from && split.is_fit(t)).count();
+            for s in sse.iter_mut() {
+                *s += r
+                    .get(at..at + k)
+                    .unwrap_or(&[])
+                    .iter()
+                    .map(|v| v * v)
+                    .sum::<f64>();
+                at += k;
+            }
+            n += k;
+        }
+        (sse, n)
+    };
     let start = match &coarse {
         // A coarse stage that diverges leaves the fine stage to start from the given model.
-        Some(w) => lm(model.clone(), w).map_or_else(|| model.clone(), |(m, ..)| m),
+        Some(w) => match lm(model.clone(), w) {
+            Some((m, r, ..)) => {
+                // The gain on the model to beat, in noise sums of squares, on its best output.
+                if let Some(other) = beat.and_then(|b| residual(b, w)) {
+                    let ((mine, n), (theirs, _)) = (by_output(&r, w), by_output(&other, w));
+                    let gain = mine
+                        .iter()
+                        .zip(&theirs)
+                        .zip(on.noise.iter().zip(&scale))
+                        .map(|((a, b), (sd, sc))| {
+                            (b - a) / (n as f64 * (sd * sc).powi(2)).max(f64::MIN_POSITIVE)
+                        })
+                        .fold(f64::NEG_INFINITY, f64::max);
+                    if gain < COARSE_MARGIN_SHARE * PRACTICAL_MARGIN {
+                        return Err(Unrefined::NoGain(format!(
+                            "it explains {gain:.2}x the noise on its best output on the data it was fitted to"
+                        )));
+                    }
+                }
+                m
+            }
+            None => model.clone(),
+        },
         None => model.clone(),
     };
     let (m, r, c, jac) = match lm(start, &fine) {
         Some(done) => done,
-        None if coarse.is_some() => lm(model.clone(), &fine)?,
-        None => return None,
+        None if coarse.is_some() => lm(model.clone(), &fine).ok_or(Unrefined::Diverged)?,
+        None => return Err(Unrefined::Diverged),
     };
     // Covariance with the columns scaled to unit norm (parameters of very different
     // magnitudes), then unscaled.
@@ -2343,7 +2482,7 @@ fn refine_output_error(
     let js = DMatrix::from_fn(jac.nrows(), p, |i, k| jac[(i, k)] * d[k]);
     let jtj = js.transpose() * &js;
     if !jtj.iter().all(|v| v.is_finite()) {
-        return Some((m, (params, DMatrix::from_element(p, p, f64::NAN))));
+        return Ok((m, (params, DMatrix::from_element(p, p, f64::NAN))));
     }
     let tau = equation::correlation_time_rows(&r, 1);
     let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
@@ -2351,7 +2490,7 @@ fn refine_output_error(
         .pseudo_inverse(1e-12)
         .map(|inv| DMatrix::from_fn(p, p, |a, b| inv[(a, b)] * d[a] * d[b] * sigma2 * tau))
         .unwrap_or_else(|_| DMatrix::zeros(p, p));
-    Some((m, (params, cov)))
+    Ok((m, (params, cov)))
 }
 
 #[cfg(test)]

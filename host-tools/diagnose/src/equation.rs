@@ -56,6 +56,9 @@ pub struct States {
     pub decimation: usize,
     /// Samples dropped at each end (filter transients).
     pub edge: usize,
+    /// The sample ranges the regression draws its rows from (the filter transients left
+    /// out): one for a whole record, one per piece of [`States::pieces`].
+    pub rows: Vec<std::ops::Range<usize>>,
     /// Memo of the state filter, its decimated results at the regression's samples
     /// `edge, edge + decimation, …` (before `len − edge`).
     pub cache: signal::LowpassCache,
@@ -215,11 +218,13 @@ pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
         .collect::<Result<_>>()?;
     let decimation = ((fs / (5.0 * fc_hz)).floor() as usize).max(1);
     let edge = ((2.0 / (fc_hz * dt)).ceil() as usize).min(len / 20);
+    let rows = std::iter::once(edge..len.saturating_sub(edge)).collect();
     let keep = (edge..len.saturating_sub(edge))
         .step_by(decimation)
         .collect();
     Ok(States {
         cache: signal::LowpassCache::new(fc_hz, dt, keep),
+        rows,
         q: qf,
         qd,
         qdd,
@@ -237,10 +242,43 @@ impl States {
     /// own filter memo: the regression of a prefix, filtered over the prefix alone.
     pub fn prefix(&self, len: usize) -> States {
         let len = len.min(self.q.first().map_or(0, Vec::len));
-        let cut = |v: &[Vec<f64>]| v.iter().map(|x| x[..len].to_vec()).collect();
-        let keep = (self.edge..len.saturating_sub(self.edge))
-            .step_by(self.decimation)
+        self.pieces(std::slice::from_ref(&(0..len)), 0)
+    }
+
+    /// The states of the record's pieces `ranges` (each within the record), concatenated,
+    /// with their own filter memo that filters each piece on its own: a shorter regression
+    /// problem drawn from the whole record. The states themselves are those of the whole
+    /// record; each piece's rows start after `warmup` samples (at least the filter
+    /// transient [`States::edge`]), so that the input effects and hysteretic states the
+    /// regression integrates along a piece have settled from its start, and end
+    /// [`States::edge`] before its end.
+    pub fn pieces(&self, ranges: &[std::ops::Range<usize>], warmup: usize) -> States {
+        let total = self.q.first().map_or(0, Vec::len);
+        let ranges: Vec<std::ops::Range<usize>> = ranges
+            .iter()
+            .map(|r| r.start.min(total)..r.end.min(total))
+            .filter(|r| !r.is_empty())
             .collect();
+        let cut = |v: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            v.iter()
+                .map(|x| {
+                    ranges
+                        .iter()
+                        .flat_map(|r| x[r.clone()].iter().copied())
+                        .collect()
+                })
+                .collect()
+        };
+        let (mut segments, mut rows, mut keep) = (Vec::new(), Vec::new(), Vec::new());
+        let mut start = 0;
+        for r in &ranges {
+            let end = start + r.len();
+            let row = (start + warmup.max(self.edge))..end.saturating_sub(self.edge);
+            keep.extend(row.clone().step_by(self.decimation));
+            segments.push(start..end);
+            rows.push(row);
+            start = end;
+        }
         States {
             q: cut(&self.q),
             qd: cut(&self.qd),
@@ -249,14 +287,32 @@ impl States {
             forces_measured: self
                 .forces_measured
                 .iter()
-                .map(|(e, f)| (*e, f[..len].to_vec()))
+                .map(|(e, f)| {
+                    (
+                        *e,
+                        ranges
+                            .iter()
+                            .flat_map(|r| f[r.clone()].iter().copied())
+                            .collect(),
+                    )
+                })
                 .collect(),
             fc_hz: self.fc_hz,
             dt: self.dt,
             decimation: self.decimation,
             edge: self.edge,
-            cache: signal::LowpassCache::new(self.fc_hz, self.dt, keep),
+            rows,
+            cache: signal::LowpassCache::segmented(self.fc_hz, self.dt, keep, segments),
         }
+    }
+
+    /// The values of `x` (a signal along the states) in [`States::rows`]: the samples a
+    /// distribution of the record is taken over.
+    pub fn interior(&self, x: &[f64]) -> Vec<f64> {
+        self.rows
+            .iter()
+            .flat_map(|r| x.get(r.clone()).unwrap_or(&[]).iter().copied())
+            .collect()
     }
 }
 
@@ -844,7 +900,7 @@ fn input_memo(
     let key = signal::fingerprint_words(words.into_iter(), words.len(), 5);
     let v = st.cache.memo_key(key, || {
         let t = l.transform(raw, st.dt);
-        let mut f = signal::lowpass_zero_phase(&t, st.fc_hz, st.dt);
+        let mut f = st.cache.lowpass(&t);
         let rate = if disp {
             signal::derivative(&f, st.dt)
         } else {
@@ -1211,6 +1267,51 @@ mod tests {
         for (got, want) in sys.rhs.iter().zip(&fu) {
             assert!((got - want).abs() <= 1e-9 * 25.0, "{got} vs {want}");
         }
+    }
+
+    #[test]
+    fn pieces_are_the_records_states_with_their_own_rows_and_filter() {
+        let (model, rec) = oscillator();
+        let st = estimate_states(&model, &rec).expect("states");
+        let len = st.q[0].len();
+        let ranges = [300..1900, len / 2..len / 2 + 1500, len - 1700..len];
+        let warmup = 3 * st.edge;
+        let p = st.pieces(&ranges, warmup);
+        let total: usize = ranges.iter().map(|r| r.len()).sum();
+        assert_eq!(p.q[0].len(), total);
+        assert_eq!(p.inputs_raw[0].len(), total);
+        let mut at = 0;
+        for (r, rows) in ranges.iter().zip(&p.rows) {
+            // The record's own states, piece by piece; rows after the warm-up, an edge
+            // before the end.
+            assert_eq!(p.q[0][at..at + r.len()], st.q[0][r.clone()]);
+            assert_eq!(p.qdd[0][at..at + r.len()], st.qdd[0][r.clone()]);
+            assert_eq!(rows.start, at + warmup);
+            assert_eq!(rows.end, at + r.len() - st.edge);
+            at += r.len();
+        }
+        let keep = p.cache.keep();
+        assert!(keep.iter().all(|t| p.rows.iter().any(|r| r.contains(t))));
+        // A column is the regressor filtered within its piece, at the kept samples.
+        let free = [Coef::Mass(0), Coef::K(0)];
+        let sys = build(&model, &p, &free, &[1.0]);
+        assert_eq!(sys.rhs.len(), keep.len());
+        let mut want = Vec::new();
+        let mut at = 0;
+        for r in &ranges {
+            let f = signal::lowpass_zero_phase(&st.qdd[0][r.clone()], st.fc_hz, st.dt);
+            want.extend(
+                keep.iter()
+                    .filter(|&&t| t >= at && t < at + r.len())
+                    .map(|&t| f[t - at]),
+            );
+            at += r.len();
+        }
+        assert_eq!(sys.columns[0], want);
+        // The distribution of a signal is taken over the rows only.
+        let ones: Vec<f64> = (0..total).map(|t| t as f64).collect();
+        let inside = p.interior(&ones);
+        assert_eq!(inside.len(), p.rows.iter().map(|r| r.len()).sum::<usize>());
     }
 
     #[test]

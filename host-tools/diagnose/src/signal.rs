@@ -137,10 +137,16 @@ pub const LOWPASS_CACHE_BYTES: usize = 512 << 20;
 /// stiffness column, a DOF's acceleration) for many candidate structures, and only the
 /// changed ones need filtering again. Shared between threads; emptied when it holds more
 /// than [`LOWPASS_CACHE_BYTES`]. A clone starts empty.
+///
+/// The signals may be concatenations of separate pieces of a record
+/// ([`LowpassCache::segmented`]): each piece is then filtered on its own, as a record of
+/// its own (padded at its ends), so that no junction leaks into its neighbours.
 pub struct LowpassCache {
     fc_hz: f64,
     dt: f64,
     keep: Vec<usize>,
+    /// The pieces, in order, covering the signals (empty: one piece, the whole signal).
+    segments: Vec<std::ops::Range<usize>>,
     map: std::sync::Mutex<CacheMap>,
 }
 
@@ -154,12 +160,39 @@ impl LowpassCache {
     /// A cache for the low-pass at `fc_hz` (Hz) of signals sampled every `dt` (s), whose
     /// [`LowpassCache::kept_key`] results are taken at the sample indices `keep`.
     pub fn new(fc_hz: f64, dt: f64, keep: Vec<usize>) -> Self {
+        Self::segmented(fc_hz, dt, keep, Vec::new())
+    }
+
+    /// [`LowpassCache::new`] for signals made of the pieces `segments` (consecutive ranges
+    /// covering the signal from its first sample), each filtered on its own; `keep` is
+    /// increasing and lies within them.
+    pub fn segmented(
+        fc_hz: f64,
+        dt: f64,
+        keep: Vec<usize>,
+        segments: Vec<std::ops::Range<usize>>,
+    ) -> Self {
+        debug_assert!(segments.windows(2).all(|w| w[0].end == w[1].start));
+        debug_assert!(keep.windows(2).all(|w| w[0] < w[1]));
         Self {
             fc_hz,
             dt,
             keep,
+            segments,
             map: std::sync::Mutex::new(CacheMap::default()),
         }
+    }
+
+    /// [`lowpass_zero_phase`] of `x`, piece by piece (not memoised).
+    pub fn lowpass(&self, x: &[f64]) -> Vec<f64> {
+        if self.segments.len() <= 1 {
+            return lowpass_zero_phase(x, self.fc_hz, self.dt);
+        }
+        let mut y = Vec::with_capacity(x.len());
+        for s in &self.segments {
+            y.extend(lowpass_zero_phase(&x[s.clone()], self.fc_hz, self.dt));
+        }
+        y
     }
 
     /// The sample indices of [`LowpassCache::kept_key`] results.
@@ -205,7 +238,7 @@ impl LowpassCache {
 
     /// [`lowpass_zero_phase`] of `x` at every sample.
     pub fn full(&self, x: &[f64]) -> std::sync::Arc<Vec<f64>> {
-        self.memo(x, 1, || lowpass_zero_phase(x, self.fc_hz, self.dt))
+        self.memo(x, 1, || self.lowpass(x))
     }
 
     /// [`lowpass_zero_phase`] of the signal `x()` at the sample indices
@@ -220,13 +253,34 @@ impl LowpassCache {
     }
 
     fn lowpass_kept(&self, x: &[f64]) -> Vec<f64> {
-        lowpass_zero_phase_at(x, self.fc_hz, self.dt, &self.keep)
+        if self.segments.len() <= 1 {
+            return lowpass_zero_phase_at(x, self.fc_hz, self.dt, &self.keep);
+        }
+        let mut out = Vec::with_capacity(self.keep.len());
+        let mut rest = &self.keep[..];
+        for s in &self.segments {
+            let (here, after) = rest.split_at(rest.partition_point(|&t| t < s.end));
+            let local: Vec<usize> = here.iter().map(|&t| t - s.start).collect();
+            out.extend(lowpass_zero_phase_at(
+                &x[s.clone()],
+                self.fc_hz,
+                self.dt,
+                &local,
+            ));
+            rest = after;
+        }
+        out
     }
 }
 
 impl Clone for LowpassCache {
     fn clone(&self) -> Self {
-        Self::new(self.fc_hz, self.dt, self.keep.clone())
+        Self::segmented(
+            self.fc_hz,
+            self.dt,
+            self.keep.clone(),
+            self.segments.clone(),
+        )
     }
 }
 
@@ -324,10 +378,12 @@ pub fn nrmse(measured: &[f64], model: &[f64]) -> f64 {
 
 /// The `p`-quantile (`p` in [0, 1]) of `x` (nearest rank).
 pub fn quantile(x: &[f64], p: f64) -> f64 {
-    if x.is_empty() {
-        return 0.0;
-    }
-    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    quantile_of(x.to_vec(), p)
+}
+
+/// [`quantile`] of the values `v`, reordered in place.
+pub fn quantile_of(mut v: Vec<f64>, p: f64) -> f64 {
+    v.retain(|v| v.is_finite());
     if v.is_empty() {
         return 0.0;
     }
@@ -488,6 +544,40 @@ mod tests {
             lowpass_zero_phase_at(&x, 600.0, 1e-3, &[3, 9]),
             vec![x[3], x[9]]
         );
+    }
+
+    #[test]
+    fn a_segmented_cache_filters_each_piece_as_a_record_of_its_own() {
+        let mut rng = mil_rig::rng::SplitMix64::new(11u64);
+        // Three pieces, the middle one offset by a large step (a junction's jump).
+        let pieces: Vec<Vec<f64>> = [0.0, 50.0, -3.0]
+            .iter()
+            .zip([1200usize, 900, 1500])
+            .map(|(off, n)| (0..n).map(|_| off + rng.uniform() - 0.5).collect())
+            .collect();
+        let x: Vec<f64> = pieces.concat();
+        let mut segments = Vec::new();
+        let mut start = 0;
+        for p in &pieces {
+            segments.push(start..start + p.len());
+            start += p.len();
+        }
+        let keep: Vec<usize> = segments
+            .iter()
+            .flat_map(|s| (s.start + 60..s.end - 60).step_by(3))
+            .collect();
+        let cache = LowpassCache::segmented(40.0, 1e-3, keep.clone(), segments.clone());
+        let own: Vec<f64> = pieces
+            .iter()
+            .flat_map(|p| lowpass_zero_phase(p, 40.0, 1e-3))
+            .collect();
+        assert_eq!(cache.lowpass(&x), own);
+        assert_eq!(*cache.full(&x), own);
+        let at = cache.kept_key([1, 2], || x.clone());
+        assert_eq!(*at, keep.iter().map(|&t| own[t]).collect::<Vec<_>>());
+        // Filtered across the junctions instead, the kept samples near them differ.
+        let across = lowpass_zero_phase(&x, 40.0, 1e-3);
+        assert!(keep.iter().any(|&t| (across[t] - own[t]).abs() > 1e-3));
     }
 
     #[test]

@@ -90,6 +90,31 @@ impl Split {
     pub fn block_of(&self, t: usize) -> usize {
         t / self.block
     }
+
+    /// The middle `len` samples of every block that holds that many (the ranges, in the
+    /// record's order) and the split of their concatenation: blocks of `len` samples, each
+    /// in its block's part, the guard at most a quarter block. A shorter record that still
+    /// spans the whole record and keeps its parts' shares.
+    pub fn middles(&self, len: usize) -> (Vec<std::ops::Range<usize>>, Split) {
+        let len = len.max(1);
+        let (mut ranges, mut roles) = (Vec::new(), Vec::new());
+        for b in 0..self.len.div_ceil(self.block) {
+            let (start, end) = (b * self.block, ((b + 1) * self.block).min(self.len));
+            if end - start >= len {
+                let s = start + (end - start - len) / 2;
+                ranges.push(s..s + len);
+                roles.push(self.block_is_validation(b));
+            }
+        }
+        let split = Split {
+            len: ranges.len() * len,
+            block: len,
+            fraction: self.fraction,
+            guard: self.guard.min(len / 4),
+            validation_blocks: roles,
+        };
+        (ranges, split)
+    }
 }
 
 #[cfg(test)]
@@ -114,6 +139,30 @@ mod tests {
             assert!((0..len / 2).any(|t| s.is_validation(t)));
             assert!((len / 2..len).any(|t| s.is_validation(t)));
         }
+    }
+
+    #[test]
+    fn the_middles_keep_each_blocks_part_and_span_the_record() {
+        let s = Split::new(600_000, 0.3, 1000, 30);
+        let (ranges, sub) = s.middles(3000);
+        assert_eq!(ranges.len(), 40);
+        assert_eq!(sub.len, 40 * 3000);
+        for (k, r) in ranges.iter().enumerate() {
+            assert_eq!(r.len(), 3000);
+            // The middle of block k, in block k's part.
+            assert_eq!(r.start, k * s.block + (s.block - 3000) / 2);
+            let mid = r.start + 1500;
+            assert_eq!(s.is_validation(mid), sub.is_validation(k * 3000 + 1500));
+            assert_eq!(s.is_fit(mid), sub.is_fit(k * 3000 + 1500));
+        }
+        let val = (0..sub.len).filter(|&t| sub.is_validation(t)).count();
+        let fit = (0..sub.len).filter(|&t| sub.is_fit(t)).count();
+        let share = val as f64 / (val + fit) as f64;
+        assert!((share - 0.3).abs() < 0.05, "{share}");
+        // A block shorter than the asked length (the record's last) is left out.
+        let (ranges, _) = Split::new(10_050, 0.3, 250, 10).middles(251);
+        assert!(ranges.iter().all(|r| r.end <= 10_050 && r.len() == 251));
+        assert_eq!(ranges.len(), 40);
     }
 
     #[test]

@@ -253,6 +253,51 @@ fn hidden_hysteresis_is_named() {
     check_gap(&d, 2.0);
 }
 
+/// Five minutes of record (300 000 samples): the candidates are searched on the middle of
+/// each block (`SELECTION_SAMPLES`), each piece filtered on its own after a warm-up, and the
+/// hidden effect with a memory (Bouc-Wen hysteresis, whose state the pieces restart) is
+/// still named with its parameters, as on the whole of a short record.
+#[test]
+fn a_long_record_is_searched_on_pieces_and_names_the_hidden_hysteresis() {
+    let bw = BoucWen {
+        alpha: 0.5,
+        a: 1.0,
+        beta: 700.0,
+        gamma: 300.0,
+        n: 1.0,
+    };
+    let f = mil_identify::band_limited_noise(0.5, 60.0, 300.0, FS, FORCE_RMS, false, seed(16));
+    let record = force_record(
+        Effects {
+            bouc_wen: Some(bw),
+            ..Effects::default()
+        },
+        &f,
+        &f,
+        seed(16),
+    );
+    let d = run("hysteresis (5 min of noise)", &oscillator_model(), &record);
+    let pieces = d
+        .notes
+        .iter()
+        .find(|n| n.starts_with("candidate effects ranked and fitted (equation error) on "));
+    println!("  {pieces:?}");
+    assert!(pieces.is_some(), "the search ran on the whole record");
+    assert_eq!(names(&d), [EffectKind::Hysteresis]);
+    let k = EffectKind::Hysteresis;
+    let alpha = param(&d, k, "alpha");
+    let zy = param(&d, k, "a") / (param(&d, k, "beta_per_m") + param(&d, k, "gamma_per_m"));
+    assert!((alpha - bw.alpha).abs() <= 0.1, "alpha {alpha}");
+    check_rel("yield deflection", zy, bw.yield_deflection_m(), 0.25);
+    check_rel(
+        "total stiffness",
+        d.recalibrated["spring.stiffness_n_per_m"],
+        K,
+        0.05,
+    );
+    check_gap(&d, 2.0);
+}
+
 #[test]
 fn hidden_input_delay_is_named() {
     // The force acts 6.5 ms after it is logged (transport delay of a drive).
