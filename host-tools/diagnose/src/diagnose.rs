@@ -53,6 +53,7 @@ use crate::parallel;
 use crate::record::Record;
 use crate::simulate::{self, prepare_inputs};
 use crate::split::Split;
+use crate::uncertainty;
 use crate::{signal, Error, Result};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -162,7 +163,10 @@ pub struct Diagnosis {
     pub updated: Model,
     /// Corrected linear parameters (e.g. `"spring.stiffness_n_per_m"`) of the updated model.
     pub recalibrated: BTreeMap<String, f64>,
-    /// One standard deviation of each corrected parameter (equation-error estimate).
+    /// One standard deviation of each corrected parameter, misfit-robust
+    /// ([`crate::uncertainty`]), from the final fit's covariance (the equation-error
+    /// recalibration's for a parameter that fit does not hold); absent for a parameter held
+    /// at a physical bound.
     pub recalibrated_std: BTreeMap<String, f64>,
     /// Named effects.
     pub named: Vec<NamedDetail>,
@@ -254,8 +258,12 @@ impl Diagnosis {
         ));
         s.push_str("recalibrated:\n");
         for (k, v) in &self.recalibrated {
-            let sd = self.recalibrated_std.get(k).copied().unwrap_or(f64::NAN);
-            s.push_str(&format!("  {k} = {v:.6e} ± {sd:.2e}\n"));
+            match self.recalibrated_std.get(k) {
+                Some(sd) => s.push_str(&format!("  {k} = {v:.6e} ± {sd:.2e}\n")),
+                None => s.push_str(&format!(
+                    "  {k} = {v:.6e} (no uncertainty: see the notes)\n"
+                )),
+            }
         }
         if self.named.is_empty() {
             s.push_str("no missing effect found (every candidate's criterion >= 0)\n");
@@ -2026,8 +2034,33 @@ pub fn diagnose_with_progress(
             _ => c.get(&updated),
         };
         recalibrated.insert(label.clone(), value);
-        if let Some(i) = recal_fit.free.iter().position(|x| *x == c) {
-            recalibrated_std.insert(label, recal_fit.covariance[(i, i)].max(0.0).sqrt());
+        // From the covariance of the final fit (the one the value comes from; a total
+        // stiffness sums its linear and hysteretic parts), else from the recalibration's;
+        // none for a coefficient held at a bound.
+        let parts = match c {
+            Coef::K(e) => vec![c, Coef::KH(e)],
+            _ => vec![c],
+        };
+        let at: Vec<usize> = parts
+            .iter()
+            .filter_map(|x| cov_params.iter().position(|p| *p == Param::Lin(*x)))
+            .collect();
+        let sd = if cov_params.contains(&Param::Lin(c)) {
+            let var: f64 = at
+                .iter()
+                .flat_map(|&a| at.iter().map(move |&b| (a, b)))
+                .map(|(a, b)| cov[(a, b)])
+                .sum();
+            Some(var.max(0.0).sqrt())
+        } else {
+            recal_fit
+                .free
+                .iter()
+                .position(|x| *x == c)
+                .map(|i| recal_fit.covariance[(i, i)].max(0.0).sqrt())
+        };
+        if let Some(sd) = sd.filter(|v| v.is_finite()) {
+            recalibrated_std.insert(label, sd);
         }
     }
     // Evidence.
@@ -2485,11 +2518,44 @@ fn refine_output_error(
         return Ok((m, (params, DMatrix::from_element(p, p, f64::NAN))));
     }
     let tau = equation::correlation_time_rows(&r, 1);
-    let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
-    let cov = jtj
+    let h = jtj
         .pseudo_inverse(1e-12)
-        .map(|inv| DMatrix::from_fn(p, p, |a, b| inv[(a, b)] * d[a] * d[b] * sigma2 * tau))
+        .map(|inv| DMatrix::from_fn(p, p, |a, b| inv[(a, b)] * d[a] * d[b]))
         .unwrap_or_else(|_| DMatrix::zeros(p, p));
+    // Misfit-robust: the sandwich over batches of consecutive fitting samples of each
+    // window, every output's rows at those samples together (the residual holds, per
+    // window, each output's samples in turn); σ² (JᵀJ)⁻¹ inflated by the correlation time
+    // when they are too few for batches.
+    let per_output: usize = fine
+        .iter()
+        .map(|(w, _, _, from)| w.clone().filter(|&t| t >= *from && split.is_fit(t)).count())
+        .sum();
+    let batch = uncertainty::batch_len(per_output, tau);
+    let mut scores: Vec<DVector<f64>> = Vec::new();
+    let mut at = 0;
+    for (w, _, _, from) in &fine {
+        let k = w.clone().filter(|&t| t >= *from && split.is_fit(t)).count();
+        for s in (0..k).step_by(batch) {
+            let e = (s + batch).min(k);
+            let mut v = DVector::<f64>::zeros(p);
+            for o in 0..measured.len() {
+                for i in (at + o * k + s)..(at + o * k + e) {
+                    if let Some(ri) = r.get(i) {
+                        for a in 0..p {
+                            v[a] += jac[(i, a)] * ri;
+                        }
+                    }
+                }
+            }
+            scores.push(v);
+        }
+        at += k * measured.len();
+    }
+    let mut cov = uncertainty::sandwich(&h, &scores);
+    if cov.iter().any(|v| v.is_nan()) {
+        let sigma2 = c / (r.len().saturating_sub(p).max(1)) as f64;
+        cov = h * (sigma2 * tau);
+    }
     Ok((m, (params, cov)))
 }
 

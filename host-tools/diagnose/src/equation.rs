@@ -977,8 +977,9 @@ fn signals_memo(
 pub struct Solution {
     /// Estimated coefficients (order of [`System::free`]).
     pub theta: Vec<f64>,
-    /// Covariance of the estimate (σ² (AᵀA)⁻¹, inflated by the residual's correlation
-    /// time), same order.
+    /// Covariance of the estimate, same order: the misfit-robust sandwich
+    /// ([`crate::uncertainty`]), or σ² (AᵀA)⁻¹ inflated by the residual's correlation time
+    /// when the rows are too few for its batches.
     pub covariance: DMatrix<f64>,
     /// Sum of squared residuals on the fitted rows.
     pub sse: f64,
@@ -1079,10 +1080,29 @@ impl System {
         }
         let dofs = self.dof.iter().copied().max().map_or(1, |m| m + 1);
         let tau = correlation_time_rows(&res, dofs);
-        let sigma2 = sse / (idx.len().saturating_sub(p).max(1)) as f64;
-        let covariance = DMatrix::from_fn(p, p, |a, b| {
-            pinv[(a, b)] * scale[a] * scale[b] * sigma2 * tau
-        });
+        // Misfit-robust: the sandwich over batches of consecutive samples (the rows are in
+        // time order, `dofs` per sample); σ² (AᵀA)⁻¹ inflated by the correlation time when
+        // the record is too short for batches.
+        let h = DMatrix::from_fn(p, p, |a, b| pinv[(a, b)] * scale[a] * scale[b]);
+        let batch = crate::uncertainty::batch_len(idx.len() / dofs, tau) * dofs;
+        let scores: Vec<DVector<f64>> = (0..res.len())
+            .step_by(batch.max(1))
+            .map(|s| {
+                let e = (s + batch).min(res.len());
+                DVector::from_fn(p, |a, _| {
+                    cols[a][s..e]
+                        .iter()
+                        .zip(&res[s..e])
+                        .map(|(x, r)| if *x == 0.0 { 0.0 } else { x * r })
+                        .sum()
+                })
+            })
+            .collect();
+        let mut covariance = crate::uncertainty::sandwich(&h, &scores);
+        if covariance.iter().any(|v| v.is_nan()) {
+            let sigma2 = sse / (idx.len().saturating_sub(p).max(1)) as f64;
+            covariance = h * (sigma2 * tau);
+        }
         Solution {
             theta,
             covariance,

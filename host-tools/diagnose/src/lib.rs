@@ -47,6 +47,7 @@ pub mod record;
 pub mod signal;
 pub mod simulate;
 pub mod split;
+pub mod uncertainty;
 
 pub use diagnose::{
     diagnose, diagnose_with_progress, Diagnosis, Gap, JsonReport, NamedEffect, Options,
