@@ -59,8 +59,8 @@ pub struct States {
     /// The sample ranges the regression draws its rows from (the filter transients left
     /// out): one for a whole record, one per piece of [`States::pieces`].
     pub rows: Vec<std::ops::Range<usize>>,
-    /// Memo of the state filter, its decimated results at the regression's samples
-    /// `edge, edge + decimation, …` (before `len − edge`).
+    /// Memo of the state filter, its decimated results at the regression's samples: every
+    /// `decimation`-th sample of each of [`States::rows`].
     pub cache: signal::LowpassCache,
 }
 
@@ -259,16 +259,13 @@ impl States {
             .map(|r| r.start.min(total)..r.end.min(total))
             .filter(|r| !r.is_empty())
             .collect();
-        let cut = |v: &[Vec<f64>]| -> Vec<Vec<f64>> {
-            v.iter()
-                .map(|x| {
-                    ranges
-                        .iter()
-                        .flat_map(|r| x[r.clone()].iter().copied())
-                        .collect()
-                })
+        let cut_one = |x: &[f64]| -> Vec<f64> {
+            ranges
+                .iter()
+                .flat_map(|r| x[r.clone()].iter().copied())
                 .collect()
         };
+        let cut = |v: &[Vec<f64>]| -> Vec<Vec<f64>> { v.iter().map(|x| cut_one(x)).collect() };
         let (mut segments, mut rows, mut keep) = (Vec::new(), Vec::new(), Vec::new());
         let mut start = 0;
         for r in &ranges {
@@ -287,15 +284,7 @@ impl States {
             forces_measured: self
                 .forces_measured
                 .iter()
-                .map(|(e, f)| {
-                    (
-                        *e,
-                        ranges
-                            .iter()
-                            .flat_map(|r| f[r.clone()].iter().copied())
-                            .collect(),
-                    )
-                })
+                .map(|(e, f)| (*e, cut_one(f)))
                 .collect(),
             fc_hz: self.fc_hz,
             dt: self.dt,
@@ -1098,11 +1087,8 @@ impl System {
                 })
             })
             .collect();
-        let mut covariance = crate::uncertainty::sandwich(&h, &scores);
-        if covariance.iter().any(|v| v.is_nan()) {
-            let sigma2 = sse / (idx.len().saturating_sub(p).max(1)) as f64;
-            covariance = h * (sigma2 * tau);
-        }
+        let sigma2 = sse / (idx.len().saturating_sub(p).max(1)) as f64;
+        let covariance = crate::uncertainty::robust(h, &scores, sigma2 * tau);
         Solution {
             theta,
             covariance,

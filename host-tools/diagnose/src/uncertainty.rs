@@ -50,6 +50,18 @@ pub fn sandwich(h: &DMatrix<f64>, scores: &[DVector<f64>]) -> DMatrix<f64> {
     h * m * h * (k as f64 / (k - p) as f64)
 }
 
+/// The [`sandwich`] of `h` over the batches' `scores`; when they are too few for it,
+/// the classical `h · sigma2_tau` (the residual's variance times its correlation time,
+/// in the units of `h`'s rows).
+pub fn robust(h: DMatrix<f64>, scores: &[DVector<f64>], sigma2_tau: f64) -> DMatrix<f64> {
+    let cov = sandwich(&h, scores);
+    if cov.iter().any(|v| v.is_nan()) {
+        h * sigma2_tau
+    } else {
+        cov
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
