@@ -35,7 +35,11 @@
 //!    the criterion is named, unless one with fewer parameters is within
 //!    [`PARSIMONY_Z`] standard errors of it (two forms that explain the record equally well: the simpler is named);
 //!    the search goes on (greedy forward selection) until
-//!    no candidate is confirmed or `max_effects` are named. A backward elimination then
+//!    no candidate is confirmed or `max_effects` are named. When it ends with one effect,
+//!    a stand-in check continues the first round's runner-up (the best other confirmed
+//!    candidate) by one round; a pair found there replaces the one effect when it pays off
+//!    against it by the same test (one effect can stand in for two: a Bouc-Wen loop of
+//!    small yield deflection for dry friction and a hardening spring). A backward elimination then
 //!    removes any effect whose removal (the rest refined by output error) does not fail the
 //!    same test, or whose strength (e.g. `k3`, a friction force, a gap; see `strength`) is
 //!    not distinguishable from none by a Wald test with the criterion's penalty
@@ -123,6 +127,37 @@ pub struct NamedDetail {
     pub criterion: f64,
     /// Validation SSE ratio (candidate / model before it) when selected.
     pub sse_ratio: f64,
+}
+
+impl NamedDetail {
+    /// The detail of `cand` when it is selected (its parameters and deviations are filled
+    /// in from the final model).
+    fn selected(model: &Model, cand: Candidate, criterion: f64, sse_ratio: f64) -> Self {
+        NamedDetail {
+            named: NamedEffect {
+                effect: cand.kind,
+                element: target_name(model, cand),
+                parameters: BTreeMap::new(),
+            },
+            std: BTreeMap::new(),
+            criterion,
+            sse_ratio,
+        }
+    }
+}
+
+/// A state of the search for missing effects: the equation-error fit and the model
+/// refined by output error after the effects named so far, its simulated validation
+/// residual, the covariance of its parameters, and what was named.
+#[derive(Clone)]
+struct Branch {
+    current: Fit,
+    updated: Model,
+    cur_eval: Option<Evaluation>,
+    cov_params: Vec<Param>,
+    cov: DMatrix<f64>,
+    named: Vec<NamedDetail>,
+    added_of: Vec<usize>,
 }
 
 /// One candidate's score in one selection round.
@@ -266,7 +301,11 @@ impl Diagnosis {
             }
         }
         if self.named.is_empty() {
-            s.push_str("no missing effect found (every candidate's criterion >= 0)\n");
+            if self.candidates.iter().any(|c| c.criterion < 0.0) {
+                s.push_str("no missing effect named: the candidates that lowered the criterion were not confirmed by simulation (see the notes)\n");
+            } else {
+                s.push_str("no missing effect found (every candidate's criterion >= 0)\n");
+            }
         }
         for n in &self.named {
             s.push_str(&format!(
@@ -1647,227 +1686,348 @@ pub fn diagnose_with_progress(
     } else {
         fit_rows
     };
-    let mut updated = recal_model.clone();
-    let mut named: Vec<NamedDetail> = Vec::new();
-    let mut scores = Vec::new();
-    let mut added_of: Vec<usize> = Vec::new();
-    for round in 0..options.max_effects {
-        let n_eff = (current.val_rows as f64 / current.tau).max(2.0);
-        // The grids of the threshold-like parameters (gaps, preloads, delays, limits, the
-        // Bouc-Wen shape) are ranked on a thinned fitting set, every `thin`-th block, that
-        // holds `GRID_EFFECTIVE_SAMPLES` effectively independent rows and still spans the
-        // record; the best grid points are then fitted on every fitting block.
-        let grid_ctx = {
-            let needed = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0);
-            let thin = ((fit_rows as f64 / needed).floor() as usize).min(MAX_THIN);
-            (thin >= 2).then(|| Context {
-                st: sctx.st,
-                weights: ctx.weights.clone(),
-                split: sctx.split,
-                thin,
-            })
+    // The search for missing effects on a branch, rounds `rounds`; with `collect`,
+    // progress is reported. A candidate's refinement must gain on the branch's model, or
+    // on `rival` when given (a model it must beat in the end). Returns the first round's
+    // runner-up (the best other confirmed candidate) as a branch of its own.
+    let search = |b: &mut Branch,
+                  rounds: std::ops::Range<usize>,
+                  rival: Option<&Model>,
+                  notes: &mut Vec<String>,
+                  scores: &mut Vec<CandidateScore>,
+                  collect: bool|
+     -> Option<Branch> {
+        let say = |f: f64, m: &str| {
+            if collect {
+                log(f, m);
+            }
         };
-        let cands = candidates(&current.model, &options.candidates);
-        // The costly grids start first, so that the threads finish together; the results
-        // are taken in the candidates' order.
-        let mut work: Vec<usize> = (0..cands.len()).collect();
-        work.sort_by_key(|&i| std::cmp::Reverse(cand_cost(cands[i].kind)));
-        let n_cands = cands.len().max(1) as f64;
-        let mut finished = 0usize;
-        let rounds = options.max_effects.max(1) as f64;
-        let mut fits: Vec<Option<(Fit, usize)>> = parallel::map(
-            &work,
-            threads,
-            |&i| fit_candidate(&sctx, grid_ctx.as_ref(), &current, cands[i]),
-            |w, fit| {
-                let i = work[w];
-                // Selection rounds share 0.15..0.85 of the work; later rounds may not happen.
-                finished += 1;
-                let done = 0.15 + 0.7 * (round as f64 + 0.5 * finished as f64 / n_cands) / rounds;
-                let cand = cands[i];
-                let what = match fit {
-                    None => "no fit".to_string(),
-                    Some((f, _)) if !physical(&f.model, cand) => "non-physical fit, skipped".into(),
-                    Some((f, added)) => {
-                        let ratio = f.sse_val / current.sse_val;
-                        let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
-                        format!("Δ = {crit:.1}, SSE x{ratio:.4}")
-                    }
+        let Branch {
+            current,
+            updated,
+            cur_eval,
+            cov_params,
+            cov,
+            named,
+            added_of,
+        } = b;
+        let mut runner_up = None;
+        for round in rounds {
+            let n_eff = (current.val_rows as f64 / current.tau).max(2.0);
+            // The grids of the threshold-like parameters (gaps, preloads, delays, limits, the
+            // Bouc-Wen shape) are ranked on a thinned fitting set, every `thin`-th block, that
+            // holds `GRID_EFFECTIVE_SAMPLES` effectively independent rows and still spans the
+            // record; the best grid points are then fitted on every fitting block.
+            let grid_ctx = {
+                let needed = GRID_EFFECTIVE_SAMPLES * current.tau.max(1.0);
+                let thin = ((fit_rows as f64 / needed).floor() as usize).min(MAX_THIN);
+                (thin >= 2).then(|| Context {
+                    st: sctx.st,
+                    weights: ctx.weights.clone(),
+                    split: sctx.split,
+                    thin,
+                })
+            };
+            let cands = candidates(&current.model, &options.candidates);
+            // The costly grids start first, so that the threads finish together; the results
+            // are taken in the candidates' order.
+            let mut work: Vec<usize> = (0..cands.len()).collect();
+            work.sort_by_key(|&i| std::cmp::Reverse(cand_cost(cands[i].kind)));
+            let n_cands = cands.len().max(1) as f64;
+            let mut finished = 0usize;
+            let rounds = options.max_effects.max(1) as f64;
+            let mut fits: Vec<Option<(Fit, usize)>> = parallel::map(
+                &work,
+                threads,
+                |&i| fit_candidate(&sctx, grid_ctx.as_ref(), current, cands[i]),
+                |w, fit| {
+                    let i = work[w];
+                    // Selection rounds share 0.15..0.85 of the work; later rounds may not happen.
+                    finished += 1;
+                    let done =
+                        0.15 + 0.7 * (round as f64 + 0.5 * finished as f64 / n_cands) / rounds;
+                    let cand = cands[i];
+                    let what = match fit {
+                        None => "no fit".to_string(),
+                        Some((f, _)) if !physical(&f.model, cand) => {
+                            "non-physical fit, skipped".into()
+                        }
+                        Some((f, added)) => {
+                            let ratio = f.sse_val / current.sse_val;
+                            let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
+                            format!("Δ = {crit:.1}, SSE x{ratio:.4}")
+                        }
+                    };
+                    say(
+                        done,
+                        &format!(
+                            "round {round}: {} on {:?}: {what}",
+                            cand.kind,
+                            target_name(&current.model, cand)
+                        ),
+                    );
+                },
+            );
+            let mut by_candidate: Vec<Option<(Fit, usize)>> =
+                (0..cands.len()).map(|_| None).collect();
+            for (&i, fit) in work.iter().zip(fits.drain(..)) {
+                by_candidate[i] = fit;
+            }
+            let mut ranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
+            for (cand, fit) in cands.into_iter().zip(by_candidate) {
+                let Some((fit, added)) = fit else {
+                    continue;
                 };
-                log(
-                    done,
+                if !physical(&fit.model, cand) {
+                    continue;
+                }
+                let ratio = fit.sse_val / current.sse_val;
+                let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
+                scores.push(CandidateScore {
+                    round,
+                    effect: cand.kind,
+                    element: target_name(&current.model, cand),
+                    criterion: crit,
+                    sse_ratio: ratio,
+                    parameters_added: added,
+                });
+                if crit.is_finite() && crit < 0.0 {
+                    ranked.push((crit, ratio, fit, cand, added));
+                }
+            }
+            ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let chosen = if oe {
+                // The best few by the equation error are each refined by output error and must
+                // pay off in simulation on the validation blocks; the best of them by the
+                // criterion is taken (so a candidate the equation error ranks first but
+                // simulation does not confirm does not end the search).
+                ranked.truncate(SELECTION_BRANCHES);
+                say(
+                    0.15 + 0.7 * (round as f64 + 0.5) / rounds,
                     &format!(
-                        "round {round}: {} on {:?}: {what}",
-                        cand.kind,
-                        target_name(&current.model, cand)
+                        "round {round}: output-error refinement of the best {}",
+                        ranked.len()
                     ),
                 );
-            },
-        );
-        let mut by_candidate: Vec<Option<(Fit, usize)>> = (0..cands.len()).map(|_| None).collect();
-        for (&i, fit) in work.iter().zip(fits.drain(..)) {
-            by_candidate[i] = fit;
-        }
-        let mut ranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
-        for (cand, fit) in cands.into_iter().zip(by_candidate) {
-            let Some((fit, added)) = fit else {
-                continue;
-            };
-            if !physical(&fit.model, cand) {
-                continue;
-            }
-            let ratio = fit.sse_val / current.sse_val;
-            let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
-            scores.push(CandidateScore {
-                round,
-                effect: cand.kind,
-                element: target_name(&current.model, cand),
-                criterion: crit,
-                sse_ratio: ratio,
-                parameters_added: added,
-            });
-            if crit.is_finite() && crit < 0.0 {
-                ranked.push((crit, ratio, fit, cand, added));
-            }
-        }
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let chosen = if oe {
-            // The best few by the equation error are each refined by output error and must
-            // pay off in simulation on the validation blocks; the best of them by the
-            // criterion is taken (so a candidate the equation error ranks first but
-            // simulation does not confirm does not end the search).
-            ranked.truncate(SELECTION_BRANCHES);
-            log(
-                0.15 + 0.7 * (round as f64 + 0.5) / rounds,
-                &format!(
-                    "round {round}: output-error refinement of the best {}",
-                    ranked.len()
-                ),
-            );
-            // Each must gain on the model reached so far (when that simulates).
-            let beat = cur_eval.as_ref().map(|_| &updated);
-            let refined = parallel::map(
-                &ranked,
-                threads,
-                |(_, _, fit, _, _)| {
-                    let (m, pc) =
-                        refine_output_error(&fit.model, &fit.free, &refine_on, threads, beat)?;
-                    let ev = sim.evaluate(&m).ok_or(Unrefined::Diverged)?;
-                    Ok((m, pc, ev))
-                },
-                |_, _| {},
-            );
-            let mut confirmed: Vec<(usize, Model, Covariance, Evaluation)> = Vec::new();
-            for (i, r) in refined.into_iter().enumerate() {
-                let (_, _, fit, cand, added) = &ranked[i];
-                let what = format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand));
-                let (m, pc, ev) = match r {
-                    Ok(done) => done,
-                    Err(Unrefined::Diverged) => {
-                        notes.push(format!(
-                            "round {round}: {what}: simulation diverged, not confirmed"
-                        ));
-                        continue;
-                    }
-                    Err(Unrefined::NoGain(why)) => {
-                        notes.push(format!(
+                // Each must gain on the model reached so far (when that simulates).
+                let beat = rival.or(cur_eval.as_ref().map(|_| &*updated));
+                let refined = parallel::map(
+                    &ranked,
+                    threads,
+                    |(_, _, fit, _, _)| {
+                        let (m, pc) =
+                            refine_output_error(&fit.model, &fit.free, &refine_on, threads, beat)?;
+                        let ev = sim.evaluate(&m).ok_or(Unrefined::Diverged)?;
+                        Ok((m, pc, ev))
+                    },
+                    |_, _| {},
+                );
+                let mut confirmed: Vec<(usize, Model, Covariance, Evaluation)> = Vec::new();
+                for (i, r) in refined.into_iter().enumerate() {
+                    let (_, _, fit, cand, added) = &ranked[i];
+                    let what = format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand));
+                    let (m, pc, ev) = match r {
+                        Ok(done) => done,
+                        Err(Unrefined::Diverged) => {
+                            notes.push(format!(
+                                "round {round}: {what}: simulation diverged, not confirmed"
+                            ));
+                            continue;
+                        }
+                        Err(Unrefined::NoGain(why)) => {
+                            notes.push(format!(
                             "round {round}: {what}: not confirmed by simulation (its refinement stopped after the coarse stage: {why})"
                         ));
-                        continue;
-                    }
-                };
-                let verdict = match &cur_eval {
-                    Some(prev) => sim.pays_off(prev, &ev, *added),
-                    None => Verdict {
-                        confirmed: true,
-                        text: "the model without it diverges, with it the simulation stays finite"
-                            .into(),
-                    },
-                };
-                notes.push(format!(
-                    "round {round}: {what}: {} by simulation ({})",
+                            continue;
+                        }
+                    };
+                    let verdict = match &cur_eval {
+                        Some(prev) => sim.pays_off(prev, &ev, *added),
+                        None => Verdict {
+                            confirmed: true,
+                            text:
+                                "the model without it diverges, with it the simulation stays finite"
+                                    .into(),
+                        },
+                    };
+                    notes.push(format!(
+                        "round {round}: {what}: {} by simulation ({})",
+                        if verdict.confirmed {
+                            "confirmed"
+                        } else {
+                            "not confirmed"
+                        },
+                        verdict.text
+                    ));
                     if verdict.confirmed {
-                        "confirmed"
-                    } else {
-                        "not confirmed"
-                    },
-                    verdict.text
-                ));
-                if verdict.confirmed {
-                    confirmed.push((i, m, pc, ev));
+                        confirmed.push((i, m, pc, ev));
+                    }
                 }
-            }
-            // Among the confirmed, the best by the criterion (a branch with more parameters
-            // must explain more to be preferred); then, repeatedly, a confirmed branch with
-            // fewer parameters whose criterion is within PARSIMONY_Z standard errors of it
-            // (the two explain the record equally well).
-            let score = |ev: &Evaluation, added: usize| match &cur_eval {
-                Some(prev) => {
-                    let n_eff = prev.n_eff();
-                    n_eff * ev.total().ln() + added as f64 * n_eff.ln()
-                }
-                None => ev.total(),
-            };
-            // Per confirmed branch: (criterion, parameters added).
-            let scored: Vec<(f64, usize)> = confirmed
-                .iter()
-                .map(|(i, _, _, ev)| (score(ev, ranked[*i].4), ranked[*i].4))
-                .collect();
-            let best_among = |among: &mut dyn Iterator<Item = usize>| {
-                among.min_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0))
-            };
-            let mut pick = best_among(&mut (0..confirmed.len()));
-            while let (Some(w), Some(prev)) = (pick, &cur_eval) {
-                let simpler = best_among(&mut (0..confirmed.len()).filter(|&c| {
-                    scored[c].1 < scored[w].1
-                        && scored[c].0 - scored[w].0
-                            < PARSIMONY_Z
-                                * prev.n_eff()
-                                * log_ratio_std(&confirmed[c].3, &confirmed[w].3)
-                }));
-                let Some(c) = simpler else { break };
-                let name = |k: usize| {
-                    let (_, _, fit, cand, _) = &ranked[confirmed[k].0];
-                    format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand))
+                // Among the confirmed, the best by the criterion (a branch with more parameters
+                // must explain more to be preferred); then, repeatedly, a confirmed branch with
+                // fewer parameters whose criterion is within PARSIMONY_Z standard errors of it
+                // (the two explain the record equally well).
+                let score = |ev: &Evaluation, added: usize| match &cur_eval {
+                    Some(prev) => {
+                        let n_eff = prev.n_eff();
+                        n_eff * ev.total().ln() + added as f64 * n_eff.ln()
+                    }
+                    None => ev.total(),
                 };
-                notes.push(format!(
+                // Per confirmed branch: (criterion, parameters added).
+                let scored: Vec<(f64, usize)> = confirmed
+                    .iter()
+                    .map(|(i, _, _, ev)| (score(ev, ranked[*i].4), ranked[*i].4))
+                    .collect();
+                let best_among = |among: &mut dyn Iterator<Item = usize>| {
+                    among.min_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0))
+                };
+                let mut pick = best_among(&mut (0..confirmed.len()));
+                while let (Some(w), Some(prev)) = (pick, &cur_eval) {
+                    let simpler = best_among(&mut (0..confirmed.len()).filter(|&c| {
+                        scored[c].1 < scored[w].1
+                            && scored[c].0 - scored[w].0
+                                < PARSIMONY_Z
+                                    * prev.n_eff()
+                                    * log_ratio_std(&confirmed[c].3, &confirmed[w].3)
+                    }));
+                    let Some(c) = simpler else { break };
+                    let name = |k: usize| {
+                        let (_, _, fit, cand, _) = &ranked[confirmed[k].0];
+                        format!("{} on {:?}", cand.kind, target_name(&fit.model, *cand))
+                    };
+                    notes.push(format!(
                     "round {round}: {} explains the record as well as {} with fewer parameters (criteria within {PARSIMONY_Z} standard errors): preferred",
                     name(c),
                     name(w),
                 ));
-                pick = Some(c);
+                    pick = Some(c);
+                }
+                // The first round's runner-up, the start of the alternative branch.
+                if round == 0 {
+                    let second = pick
+                        .and_then(|w| best_among(&mut (0..confirmed.len()).filter(|&c| c != w)));
+                    runner_up = second.map(|c| {
+                        let (i, m, pc, ev) = confirmed[c].clone();
+                        let (crit, ratio, fit, cand, added) = ranked[i].clone();
+                        let (cov_params, cov) = pc;
+                        Branch {
+                            named: vec![NamedDetail::selected(&fit.model, cand, crit, ratio)],
+                            added_of: vec![added],
+                            current: fit,
+                            updated: m,
+                            cur_eval: Some(ev),
+                            cov_params,
+                            cov,
+                        }
+                    });
+                }
+                let best = pick.map(|w| confirmed.swap_remove(w));
+                best.map(|(i, m, pc, ev)| {
+                    *cur_eval = Some(ev);
+                    *updated = m;
+                    (*cov_params, *cov) = pc;
+                    ranked.swap_remove(i)
+                })
+            } else {
+                (!ranked.is_empty()).then(|| ranked.swap_remove(0))
+            };
+            let Some((crit, ratio, fit, cand, added)) = chosen else {
+                break;
+            };
+            if !oe {
+                *updated = fit.model.clone();
+                *cov_params = fit.free.iter().map(|c| Param::Lin(*c)).collect();
+                *cov = fit.covariance.clone();
             }
-            let best = pick.map(|w| confirmed.swap_remove(w));
-            best.map(|(i, m, pc, ev)| {
-                cur_eval = Some(ev);
-                updated = m;
-                (cov_params, cov) = pc;
-                ranked.swap_remove(i)
-            })
-        } else {
-            (!ranked.is_empty()).then(|| ranked.swap_remove(0))
-        };
-        let Some((crit, ratio, fit, cand, added)) = chosen else {
-            break;
-        };
-        if !oe {
-            updated = fit.model.clone();
-            cov_params = fit.free.iter().map(|c| Param::Lin(*c)).collect();
-            cov = fit.covariance.clone();
+            named.push(NamedDetail::selected(&fit.model, cand, crit, ratio));
+            added_of.push(added);
+            *current = fit;
         }
-        named.push(NamedDetail {
-            named: NamedEffect {
-                effect: cand.kind,
-                element: target_name(&fit.model, cand),
-                parameters: BTreeMap::new(),
-            },
-            std: BTreeMap::new(),
-            criterion: crit,
-            sse_ratio: ratio,
-        });
-        added_of.push(added);
-        current = fit;
+        runner_up
+    };
+    let mut scores = Vec::new();
+    let mut main = Branch {
+        current,
+        updated: recal_model.clone(),
+        cur_eval,
+        cov_params,
+        cov,
+        named: Vec::new(),
+        added_of: Vec::new(),
+    };
+    let runner_up = search(
+        &mut main,
+        0..options.max_effects,
+        None,
+        &mut notes,
+        &mut scores,
+        true,
+    );
+    // A stand-in check: when one effect is named, the first round's runner-up, continued
+    // by a round of its own, may explain the record better with two (a Bouc-Wen loop
+    // standing in for dry friction and a hardening spring together). The pair replaces the
+    // one effect only when it pays off against it in simulation by the same test as any
+    // added effect.
+    if let (true, 1, Some(mut alt)) = (oe, main.named.len(), runner_up) {
+        if options.max_effects >= 2 {
+            log(0.86, "stand-in check: the runner-up continued");
+            let (mut alt_notes, mut alt_scores) = (Vec::new(), Vec::new());
+            // One round: the pair is what is compared; each of its candidates must gain on
+            // the one effect named.
+            search(
+                &mut alt,
+                1..2,
+                Some(&main.updated),
+                &mut alt_notes,
+                &mut alt_scores,
+                false,
+            );
+            let pair = |b: &Branch| {
+                b.named
+                    .iter()
+                    .map(|n| format!("{} on {:?}", n.named.effect, n.named.element))
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            };
+            if let (2.., Some(one), Some(two)) = (alt.named.len(), &main.cur_eval, &alt.cur_eval) {
+                let added = alt
+                    .added_of
+                    .iter()
+                    .sum::<usize>()
+                    .saturating_sub(main.added_of.iter().sum());
+                let verdict = sim.pays_off(one, two, added);
+                notes.push(format!(
+                    "stand-in check: {} against {}: {} ({})",
+                    pair(&alt),
+                    pair(&main),
+                    if verdict.confirmed {
+                        "the pair is named"
+                    } else {
+                        "the one effect stays"
+                    },
+                    verdict.text
+                ));
+                if verdict.confirmed {
+                    notes.extend(
+                        alt_notes
+                            .into_iter()
+                            .map(|n| format!("stand-in check: {n}")),
+                    );
+                    main = alt;
+                }
+            }
+        }
     }
+    let Branch {
+        current,
+        mut updated,
+        mut cur_eval,
+        mut cov_params,
+        mut cov,
+        mut named,
+        mut added_of,
+    } = main;
     // Backward elimination in simulation: each named effect is removed from the final model
     // in turn and the rest refined by output error from the final parameters; an effect is
     // dropped when the model without it, equally refined, is as good by the same test (a
