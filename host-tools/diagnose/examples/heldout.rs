@@ -138,6 +138,8 @@ struct Found {
     gap_after: f64,
     recalibrated: BTreeMap<String, f64>,
     notes: Vec<String>,
+    /// Every candidate's equation-error score, best first per round (`--verbose`).
+    candidates: Vec<String>,
 }
 
 struct Outcome {
@@ -176,6 +178,22 @@ fn found_of(d: &Diagnosis) -> Found {
         gap_after: d.gap_after.nrmse,
         recalibrated: d.recalibrated.clone(),
         notes: d.notes.clone(),
+        candidates: {
+            let mut c = d.candidates.clone();
+            c.sort_by(|a, b| {
+                a.round
+                    .cmp(&b.round)
+                    .then(a.criterion.total_cmp(&b.criterion))
+            });
+            c.iter()
+                .map(|c| {
+                    format!(
+                        "round {}: {} on {:?}: criterion {:.1}, SSE x{:.4}",
+                        c.round, c.effect, c.element, c.criterion, c.sse_ratio
+                    )
+                })
+                .collect()
+        },
     }
 }
 
@@ -294,6 +312,9 @@ fn print_line(o: &Outcome, verbose: bool) {
             if verbose {
                 for n in &f.notes {
                     println!("      note: {n}");
+                }
+                for c in &f.candidates {
+                    println!("      candidate {c}");
                 }
                 for (k, v) in &f.recalibrated {
                     let truth = o.true_linear.get(k).map_or(String::new(), |t| {
