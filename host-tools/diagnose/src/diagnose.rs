@@ -154,8 +154,7 @@ struct Branch {
     current: Fit,
     updated: Model,
     cur_eval: Option<Evaluation>,
-    cov_params: Vec<Param>,
-    cov: DMatrix<f64>,
+    covariance: Covariance,
     named: Vec<NamedDetail>,
     added_of: Vec<usize>,
 }
@@ -1706,8 +1705,7 @@ pub fn diagnose_with_progress(
             current,
             updated,
             cur_eval,
-            cov_params,
-            cov,
+            covariance,
             named,
             added_of,
         } = b;
@@ -1908,17 +1906,15 @@ pub fn diagnose_with_progress(
                     let second = pick
                         .and_then(|w| best_among(&mut (0..confirmed.len()).filter(|&c| c != w)));
                     runner_up = second.map(|c| {
-                        let (i, m, pc, ev) = confirmed[c].clone();
+                        let (i, m, covariance, ev) = confirmed[c].clone();
                         let (crit, ratio, fit, cand, added) = ranked[i].clone();
-                        let (cov_params, cov) = pc;
                         Branch {
                             named: vec![NamedDetail::selected(&fit.model, cand, crit, ratio)],
                             added_of: vec![added],
                             current: fit,
                             updated: m,
                             cur_eval: Some(ev),
-                            cov_params,
-                            cov,
+                            covariance,
                         }
                     });
                 }
@@ -1926,7 +1922,7 @@ pub fn diagnose_with_progress(
                 best.map(|(i, m, pc, ev)| {
                     *cur_eval = Some(ev);
                     *updated = m;
-                    (*cov_params, *cov) = pc;
+                    *covariance = pc;
                     ranked.swap_remove(i)
                 })
             } else {
@@ -1937,8 +1933,10 @@ pub fn diagnose_with_progress(
             };
             if !oe {
                 *updated = fit.model.clone();
-                *cov_params = fit.free.iter().map(|c| Param::Lin(*c)).collect();
-                *cov = fit.covariance.clone();
+                *covariance = (
+                    fit.free.iter().map(|c| Param::Lin(*c)).collect(),
+                    fit.covariance.clone(),
+                );
             }
             named.push(NamedDetail::selected(&fit.model, cand, crit, ratio));
             added_of.push(added);
@@ -1951,8 +1949,7 @@ pub fn diagnose_with_progress(
         current,
         updated: recal_model.clone(),
         cur_eval,
-        cov_params,
-        cov,
+        covariance: (cov_params, cov),
         named: Vec::new(),
         added_of: Vec::new(),
     };
@@ -1969,53 +1966,52 @@ pub fn diagnose_with_progress(
     // standing in for dry friction and a hardening spring together). The pair replaces the
     // one effect only when it pays off against it in simulation by the same test as any
     // added effect.
-    if let (true, 1, Some(mut alt)) = (oe, main.named.len(), runner_up) {
-        if options.max_effects >= 2 {
-            log(0.86, "stand-in check: the runner-up continued");
-            let (mut alt_notes, mut alt_scores) = (Vec::new(), Vec::new());
-            // One round: the pair is what is compared; each of its candidates must gain on
-            // the one effect named.
-            search(
-                &mut alt,
-                1..2,
-                Some(&main.updated),
-                &mut alt_notes,
-                &mut alt_scores,
-                false,
-            );
-            let pair = |b: &Branch| {
-                b.named
-                    .iter()
-                    .map(|n| format!("{} on {:?}", n.named.effect, n.named.element))
-                    .collect::<Vec<_>>()
-                    .join(" + ")
-            };
-            if let (2.., Some(one), Some(two)) = (alt.named.len(), &main.cur_eval, &alt.cur_eval) {
-                let added = alt
-                    .added_of
-                    .iter()
-                    .sum::<usize>()
-                    .saturating_sub(main.added_of.iter().sum());
-                let verdict = sim.pays_off(one, two, added);
-                notes.push(format!(
-                    "stand-in check: {} against {}: {} ({})",
-                    pair(&alt),
-                    pair(&main),
-                    if verdict.confirmed {
-                        "the pair is named"
-                    } else {
-                        "the one effect stays"
-                    },
-                    verdict.text
-                ));
+    let stand_in = oe && main.named.len() == 1 && options.max_effects >= 2;
+    if let (true, Some(mut alt)) = (stand_in, runner_up) {
+        log(0.86, "stand-in check: the runner-up continued");
+        let (mut alt_notes, mut alt_scores) = (Vec::new(), Vec::new());
+        // One round: the pair is what is compared; each of its candidates must gain on
+        // the one effect named.
+        search(
+            &mut alt,
+            1..2,
+            Some(&main.updated),
+            &mut alt_notes,
+            &mut alt_scores,
+            false,
+        );
+        let pair = |b: &Branch| {
+            b.named
+                .iter()
+                .map(|n| format!("{} on {:?}", n.named.effect, n.named.element))
+                .collect::<Vec<_>>()
+                .join(" + ")
+        };
+        if let (2.., Some(one), Some(two)) = (alt.named.len(), &main.cur_eval, &alt.cur_eval) {
+            let added = alt
+                .added_of
+                .iter()
+                .sum::<usize>()
+                .saturating_sub(main.added_of.iter().sum());
+            let verdict = sim.pays_off(one, two, added);
+            notes.push(format!(
+                "stand-in check: {} against {}: {} ({})",
+                pair(&alt),
+                pair(&main),
                 if verdict.confirmed {
-                    notes.extend(
-                        alt_notes
-                            .into_iter()
-                            .map(|n| format!("stand-in check: {n}")),
-                    );
-                    main = alt;
-                }
+                    "the pair is named"
+                } else {
+                    "the one effect stays"
+                },
+                verdict.text
+            ));
+            if verdict.confirmed {
+                notes.extend(
+                    alt_notes
+                        .into_iter()
+                        .map(|n| format!("stand-in check: {n}")),
+                );
+                main = alt;
             }
         }
     }
@@ -2023,8 +2019,7 @@ pub fn diagnose_with_progress(
         current,
         mut updated,
         mut cur_eval,
-        mut cov_params,
-        mut cov,
+        covariance: (mut cov_params, mut cov),
         mut named,
         mut added_of,
     } = main;
