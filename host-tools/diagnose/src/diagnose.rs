@@ -12,7 +12,10 @@
 //!    by equation-error least squares on the fitting blocks ([`crate::equation`]), within
 //!    physical bounds: a mass stays positive, a stiffness or damping non-negative; a
 //!    coefficient the data would put outside is held at its bound and the notes say so.
-//! 3. **Candidates**: each effect on each element (or input) it applies to, its
+//! 3. **Candidates**: each effect on each element (or input) it applies to (hysteresis also
+//!    on an element with damping and no spring: dry friction through a compliant link, as in
+//!    a friction or MR damper; an input effect only when it passes on at least
+//!    [`INPUT_KEPT`] of the input's spread), its
 //!    coefficients fitted together with the linear parameters (linear least squares; effects
 //!    with a threshold-like parameter — gap, preload, delay, limits, Bouc-Wen shape — by a
 //!    grid over quantiles of the data, each grid point a linear fit, ranked on every few
@@ -797,10 +800,12 @@ fn candidates(model: &Model, kinds: &[EffectKind]) -> Vec<Candidate> {
                 continue;
             }
             let ok = match kind {
-                EffectKind::CubicStiffness
-                | EffectKind::Backlash
-                | EffectKind::Hysteresis
-                | EffectKind::LiftOff => l.k > 0.0,
+                EffectKind::CubicStiffness | EffectKind::Backlash | EffectKind::LiftOff => {
+                    l.k > 0.0
+                }
+                // On a damper without a spring too: dry friction through a compliant link
+                // (pre-sliding), the hysteretic spring then the element's whole stiffness.
+                EffectKind::Hysteresis => l.k > 0.0 || l.c > 0.0,
                 EffectKind::AsymmetricDamping => l.c > 0.0,
                 _ => true,
             };
@@ -945,6 +950,14 @@ fn fit_candidate(
                 }
             }
         }
+        // An input effect that passes on less than INPUT_KEPT of the input's spread does
+        // not shape the input, it removes it (a rate limit far below the input's rates: the
+        // equation error then shrinks with the force it no longer has to explain).
+        let spread = signal::std(&st.interior(raw));
+        variants.retain(|m| {
+            let t = m.inputs[j].law.transform(raw, st.dt);
+            signal::std(&st.interior(&t)) >= INPUT_KEPT * spread
+        });
         return best_grid(ctx, grid, variants, &free).map(|f| (f, added));
     }
     match cand.kind {
@@ -1189,6 +1202,13 @@ const MAX_THIN: usize = 5;
 /// sum of squares and could not be named; at 0.25, input delays standing in for a
 /// different input-path form (0.35–0.36× the noise) are named.
 pub const PRACTICAL_MARGIN: f64 = 0.5;
+
+/// The least share of an input's spread (standard deviation over the record) that an input
+/// effect must pass on to be a candidate: 0.5. Saturation, rate limits and delays that a
+/// rig has shape the input and keep most of it; one that leaves less than half of it is the
+/// model giving up on the input, which lowers an equation error measured in that input's
+/// units for no physical reason.
+pub const INPUT_KEPT: f64 = 0.5;
 
 /// The practical margin's floor relative to the output's validation sum of squares before
 /// the effect (for records with little noise): 1 %.
@@ -1590,8 +1610,12 @@ pub fn diagnose_with_progress(
         .collect();
     notes.extend(reduced);
     for c in &recal_fit.bounded {
+        let (range, held) = match c {
+            Coef::Mass(_) => ("at or below 0", "its value in the model file"),
+            _ => ("below 0", "the bound"),
+        };
         notes.push(format!(
-            "{}: the record puts it outside its physical range; held at {:.6e} (bound active)",
+            "{}: the record puts it {range} (outside its physical range); held at {held}, {:.6e} (bound active)",
             c.label(model),
             c.get(&recal_fit.model)
         ));
@@ -2116,14 +2140,16 @@ pub fn diagnose_with_progress(
     } else {
         GapBasis::EquationError
     };
+    // Normalised by the spread of the measured generalised forces (the inputs' as
+    // measured: one denominator for every model, so that an input effect that shrinks the
+    // force it passes on does not shrink the yardstick with it).
+    let forces = equation::build(&strip(model), &st, &[], &ctx.weights);
+    let force_spread = signal::std(&forces.residuals(&[], |t| split.is_validation(t)));
     let ee_gap = |m: &Model| -> Gap {
         let sys = equation::build(m, &st, &[], &ctx.weights);
         let r = sys.residuals(&[], |t| split.is_validation(t));
-        // Normalised by the spread of the measured generalised forces (the inputs').
-        let forces = equation::build(&strip(m), &st, &[], &ctx.weights);
-        let f = forces.residuals(&[], |t| split.is_validation(t));
         Gap {
-            nrmse: signal::rms(&r) / signal::std(&f).max(1e-300),
+            nrmse: signal::rms(&r) / force_spread.max(1e-300),
         }
     };
     let (gap_before, gap_recalibrated, gap_after, sims) = if basis == GapBasis::Simulation {
@@ -2309,12 +2335,15 @@ pub fn diagnose_with_progress(
     })
 }
 
-/// The model with every element and mass removed from the equations (only the inputs'
-/// generalised forces remain on the right-hand side).
+/// `m` with no mass, bias or element force and its inputs as measured (no input effect):
+/// its equation-error residual is the measured generalised forces.
 fn strip(m: &Model) -> Model {
     let mut s = m.clone();
     for e in &mut s.elements {
         e.law = crate::effects::ElementLaw::linear(0.0, 0.0);
+    }
+    for i in &mut s.inputs {
+        i.law = crate::effects::InputLaw::default();
     }
     s.mass.iter_mut().for_each(|v| *v = 0.0);
     s.bias.iter_mut().for_each(|v| *v = 0.0);
