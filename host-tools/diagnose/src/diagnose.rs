@@ -1210,6 +1210,71 @@ pub const PRACTICAL_MARGIN: f64 = 0.5;
 /// units for no physical reason.
 pub const INPUT_KEPT: f64 = 0.5;
 
+/// The least net work the force inputs may do on a specimen driven by force alone, as a
+/// share of the power they exchange with it (`∫ F·v dt / ∫ |F·v| dt`, the force less its
+/// mean): −0.5. A passive specimen only takes energy in, less what it held at the start; a
+/// force that takes out half of what it exchanges has the opposite sign to the model's (a
+/// load cell read in tension against a DOF positive in compression). A damper gives about
+/// +1 and a lightly damped oscillator a small positive share, so the check does not depend on
+/// the record beyond that physical bound; a wrong sign on a lightly damped record escapes it
+/// (its recalibration then reports negative masses or dampings held at their bounds).
+pub const NET_WORK_FLOOR: f64 = -0.5;
+
+/// Refuses a record whose force inputs take energy out of a specimen that no displacement
+/// input drives ([`NET_WORK_FLOOR`]), naming the inputs and the fix.
+fn check_force_signs(model: &Model, st: &States) -> Result<()> {
+    if model
+        .inputs
+        .iter()
+        .any(|i| i.kind == InputKind::Displacement)
+    {
+        return Ok(());
+    }
+    let mut total = (0.0, 0.0);
+    let mut wrong = Vec::new();
+    for (inp, raw) in model.inputs.iter().zip(&st.inputs_raw) {
+        if inp.kind != InputKind::Force {
+            continue;
+        }
+        // The velocity of the point the force acts at, along the force.
+        let v: Vec<f64> = (0..raw.len())
+            .map(|t| {
+                inp.t
+                    .iter()
+                    .zip(&st.qd)
+                    .map(|(g, qd)| g * qd.get(t).copied().unwrap_or(0.0))
+                    .sum()
+            })
+            .collect();
+        let (f, v) = (st.interior(raw), st.interior(&v));
+        let mean = signal::mean(&f);
+        let (net, exchanged) = f.iter().zip(&v).fold((0.0, 0.0), |(n, e), (f, v)| {
+            let p = (f - mean) * v;
+            (n + p, e + p.abs())
+        });
+        total = (total.0 + net, total.1 + exchanged);
+        if exchanged > 0.0 && net / exchanged < NET_WORK_FLOOR {
+            wrong.push(format!(
+                "{:?} (column {:?}: {:.2})",
+                inp.name,
+                inp.column,
+                net / exchanged
+            ));
+        }
+    }
+    if total.1 > 0.0 && total.0 / total.1 < NET_WORK_FLOOR && !wrong.is_empty() {
+        return Err(Error::Record(format!(
+            "the force input {} takes energy out of the specimen (net work {:.2} of the power \
+             it exchanges; a passive specimen driven by force only takes energy in): its sign \
+             is probably opposite to the model's (positive along the DOF or point it acts \
+             at); give the input `gain = -1` or flip the column",
+            wrong.join(", "),
+            total.0 / total.1
+        )));
+    }
+    Ok(())
+}
+
 /// The practical margin's floor relative to the output's validation sum of squares before
 /// the effect (for records with little noise): 1 %.
 pub const RELATIVE_FLOOR: f64 = 0.01;
@@ -1550,6 +1615,7 @@ pub fn diagnose_with_progress(
     // The equation error filters every regressor alike (inputs included); the simulations
     // are driven by the inputs low-passed at their own band edges.
     let st = equation::estimate_states(model, record)?;
+    check_force_signs(model, &st)?;
     let (prefiltered, input_cutoffs) = prefilter_inputs(model, record);
     let record = &prefiltered;
     // Blocks of at least four filter transients, a guard of one cut-off period.

@@ -434,3 +434,28 @@ fn damper_bench_development_seeds() {
 fn damper_bench_held_out_seeds() {
     check("held-out", 1000..1024);
 }
+
+/// A load cell read with the opposite sign convention (tension positive against a DOF
+/// positive in compression) is refused with the fix, not diagnosed into a 65 t mass; the same
+/// records with the right sign are diagnosed.
+#[test]
+fn a_force_of_the_opposite_sign_is_refused_with_the_fix() {
+    for seed in [2, 3, 8, 9] {
+        let case = draw(seed);
+        let mut cols = case.record.columns.clone();
+        cols[0].iter_mut().for_each(|v| *v = -*v);
+        let t: Vec<f64> = (0..cols[0].len())
+            .map(|i| i as f64 * case.record.dt)
+            .collect();
+        let flipped = Record::new(&t, case.record.names.clone(), cols).expect("record");
+        let err = diagnose(&case.model, &flipped, &Options::default())
+            .err()
+            .map(|e| e.to_string());
+        println!("{}: {err:?}", case.label);
+        let err = err.expect("a flipped force is refused");
+        assert!(
+            err.contains("\"force\"") && err.contains("gain = -1"),
+            "{err}"
+        );
+    }
+}
