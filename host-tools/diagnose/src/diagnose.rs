@@ -1211,32 +1211,34 @@ pub const PRACTICAL_MARGIN: f64 = 0.5;
 pub const INPUT_KEPT: f64 = 0.5;
 
 /// The least net work the force inputs may do on a specimen driven by force alone, as a
-/// share of the power they exchange with it (`∫ F·v dt / ∫ |F·v| dt`, the force less its
-/// mean): −0.5. A passive specimen only takes energy in, less what it held at the start; a
+/// share of the power they exchange with it ([`force_work_share`]): −0.5. A passive specimen only takes energy in, less what it held at the start; a
 /// force that takes out half of what it exchanges has the opposite sign to the model's (a
 /// load cell read in tension against a DOF positive in compression). A damper gives about
 /// +1 and a lightly damped oscillator a small positive share, so the check does not depend on
-/// the record beyond that physical bound; a wrong sign on a lightly damped record escapes it
-/// (its recalibration then reports negative masses or dampings held at their bounds).
+/// the record beyond that physical bound. A wrong sign on a lightly damped record escapes it
+/// and is caught by the recalibration instead: net work below 0 with every mass and a
+/// damping that the record would make negative.
 pub const NET_WORK_FLOOR: f64 = -0.5;
 
-/// Refuses a record whose force inputs take energy out of a specimen that no displacement
-/// input drives ([`NET_WORK_FLOOR`]), naming the inputs and the fix.
-fn check_force_signs(model: &Model, st: &States) -> Result<()> {
+/// The net work of the force inputs on a specimen that no displacement input drives, as a
+/// share of the power they exchange with it (`∫ F·v dt / ∫ |F·v| dt`, each force less its
+/// mean, `v` the velocity of the point it acts at along it), with the inputs whose own
+/// share is negative (name, column, share); `None` when a displacement input drives the
+/// specimen or no force input exchanges power.
+fn force_work_share(model: &Model, st: &States) -> Option<(f64, Vec<String>)> {
     if model
         .inputs
         .iter()
         .any(|i| i.kind == InputKind::Displacement)
     {
-        return Ok(());
+        return None;
     }
     let mut total = (0.0, 0.0);
-    let mut wrong = Vec::new();
+    let mut negative = Vec::new();
     for (inp, raw) in model.inputs.iter().zip(&st.inputs_raw) {
         if inp.kind != InputKind::Force {
             continue;
         }
-        // The velocity of the point the force acts at, along the force.
         let v: Vec<f64> = (0..raw.len())
             .map(|t| {
                 inp.t
@@ -1253,8 +1255,8 @@ fn check_force_signs(model: &Model, st: &States) -> Result<()> {
             (n + p, e + p.abs())
         });
         total = (total.0 + net, total.1 + exchanged);
-        if exchanged > 0.0 && net / exchanged < NET_WORK_FLOOR {
-            wrong.push(format!(
+        if exchanged > 0.0 && net < 0.0 {
+            negative.push(format!(
                 "{:?} (column {:?}: {:.2})",
                 inp.name,
                 inp.column,
@@ -1262,17 +1264,17 @@ fn check_force_signs(model: &Model, st: &States) -> Result<()> {
             ));
         }
     }
-    if total.1 > 0.0 && total.0 / total.1 < NET_WORK_FLOOR && !wrong.is_empty() {
-        return Err(Error::Record(format!(
-            "the force input {} takes energy out of the specimen (net work {:.2} of the power \
-             it exchanges; a passive specimen driven by force only takes energy in): its sign \
-             is probably opposite to the model's (positive along the DOF or point it acts \
-             at); give the input `gain = -1` or flip the column",
-            wrong.join(", "),
-            total.0 / total.1
-        )));
-    }
-    Ok(())
+    (total.1 > 0.0).then(|| (total.0 / total.1, negative))
+}
+
+/// The error for force inputs whose sign is probably opposite to the model's: `why` is the
+/// evidence.
+fn flipped_force(inputs: &[String], why: &str) -> Error {
+    Error::Record(format!(
+        "the force input {} {why}: its sign is probably opposite to the model's (positive \
+         along the DOF or point it acts at); give the input `gain = -1` or flip the column",
+        inputs.join(", ")
+    ))
 }
 
 /// The practical margin's floor relative to the output's validation sum of squares before
@@ -1615,7 +1617,18 @@ pub fn diagnose_with_progress(
     // The equation error filters every regressor alike (inputs included); the simulations
     // are driven by the inputs low-passed at their own band edges.
     let st = equation::estimate_states(model, record)?;
-    check_force_signs(model, &st)?;
+    // A force column read with the opposite sign convention: refused when the energy says
+    // so alone, or (below) with the recalibration's signs.
+    let work = force_work_share(model, &st);
+    if let Some((share, negative)) = work.as_ref().filter(|w| w.0 < NET_WORK_FLOOR) {
+        return Err(flipped_force(
+            negative,
+            &format!(
+                "takes energy out of the specimen (net work {share:.2} of the power it \
+                 exchanges; a passive specimen driven by force only takes energy in)"
+            ),
+        ));
+    }
     let (prefiltered, input_cutoffs) = prefilter_inputs(model, record);
     let record = &prefiltered;
     // Blocks of at least four filter transients, a guard of one cut-off period.
@@ -1675,6 +1688,28 @@ pub fn diagnose_with_progress(
         .map(|(c, fc)| format!("input column {c:?} low-passed at {fc:.1} Hz (an octave above its signal band edge)"))
         .collect();
     notes.extend(reduced);
+    // Every mass the record fixes at or below 0 and a damping below 0, with net work out of
+    // the specimen: the equations of motion hold with every sign reversed.
+    if let Some((share, negative)) = work.as_ref().filter(|w| w.0 < 0.0) {
+        let masses: Vec<&Coef> = free0
+            .iter()
+            .filter(|c| matches!(c, Coef::Mass(_)))
+            .collect();
+        let held = |c: &Coef| recal_fit.bounded.contains(c);
+        if !masses.is_empty()
+            && masses.iter().all(|c| held(c))
+            && recal_fit.bounded.iter().any(|c| matches!(c, Coef::C(_)))
+        {
+            return Err(flipped_force(
+                negative,
+                &format!(
+                    "takes energy out of the specimen (net work {share:.2} of the power it \
+                     exchanges) and the record puts every mass at or below 0 and a damping \
+                     below 0"
+                ),
+            ));
+        }
+    }
     for c in &recal_fit.bounded {
         let (range, held) = match c {
             Coef::Mass(_) => ("at or below 0", "its value in the model file"),
