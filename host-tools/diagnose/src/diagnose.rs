@@ -40,7 +40,8 @@
 //!    the search goes on (greedy forward selection) until
 //!    no candidate is confirmed or `max_effects` are named. When it ends with one effect,
 //!    a stand-in check continues the first round's runner-up (the best other confirmed
-//!    candidate) by one round; a pair found there replaces the one effect when it pays off
+//!    candidate) by one round (its candidates refined only when their equation-error fit
+//!    beats the one effect's); a pair found there replaces the one effect when it pays off
 //!    against it by the same test (one effect can stand in for two: a Bouc-Wen loop of
 //!    small yield deflection for dry friction and a hardening spring). A backward elimination then
 //!    removes any effect whose removal (the rest refined by output error) does not fail the
@@ -1812,11 +1813,13 @@ pub fn diagnose_with_progress(
     };
     // The search for missing effects on a branch, rounds `rounds`; with `collect`,
     // progress is reported. A candidate's refinement must gain on the branch's model, or
-    // on `rival` when given (a model it must beat in the end). Returns the first round's
-    // runner-up (the best other confirmed candidate) as a branch of its own.
+    // on `rival` when given (a model it must beat in the end, with its equation-error
+    // validation SSE: a candidate that does not beat that either is not refined). Returns
+    // the first round's runner-up (the best other confirmed candidate) as a branch of its
+    // own.
     let search = |b: &mut Branch,
                   rounds: std::ops::Range<usize>,
-                  rival: Option<&Model>,
+                  rival: Option<(&Model, f64)>,
                   notes: &mut Vec<String>,
                   scores: &mut Vec<CandidateScore>,
                   collect: bool|
@@ -1914,7 +1917,8 @@ pub fn diagnose_with_progress(
                     sse_ratio: ratio,
                     parameters_added: added,
                 });
-                if crit.is_finite() && crit < 0.0 {
+                let beats_rival = rival.is_none_or(|(_, sse)| fit.sse_val < sse);
+                if crit.is_finite() && crit < 0.0 && beats_rival {
                     ranked.push((crit, ratio, fit, cand, added));
                 }
             }
@@ -1933,7 +1937,7 @@ pub fn diagnose_with_progress(
                     ),
                 );
                 // Each must gain on the model reached so far (when that simulates).
-                let beat = rival.or(cur_eval.as_ref().map(|_| &*updated));
+                let beat = rival.map(|r| r.0).or(cur_eval.as_ref().map(|_| &*updated));
                 let refined = parallel::map(
                     &ranked,
                     threads,
@@ -2096,11 +2100,13 @@ pub fn diagnose_with_progress(
         log(0.86, "stand-in check: the runner-up continued");
         let (mut alt_notes, mut alt_scores) = (Vec::new(), Vec::new());
         // One round: the pair is what is compared; each of its candidates must gain on
-        // the one effect named.
+        // the one effect named, by the equation error first (a pair that fits the record
+        // worse than the one effect is not refined: most of the check's cost) and then in
+        // simulation.
         search(
             &mut alt,
             1..2,
-            Some(&main.updated),
+            Some((&main.updated, main.current.sse_val)),
             &mut alt_notes,
             &mut alt_scores,
             false,
