@@ -879,6 +879,14 @@ fn fit_candidate(
             set(&mut m.inputs[j].law);
             m
         };
+        // An input effect that passes on less than INPUT_KEPT of the input's spread does
+        // not shape the input, it removes it (a rate limit far below the input's rates: the
+        // equation error then shrinks with the force it no longer has to explain).
+        let spread = signal::std(&st.interior(raw));
+        let keeps = |m: &Model| {
+            let t = m.inputs[j].law.transform(raw, st.dt);
+            signal::std(&st.interior(&t)) >= INPUT_KEPT * spread
+        };
         match cand.kind {
             EffectKind::InputDelay => {
                 for k in [0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0] {
@@ -902,6 +910,7 @@ fn fit_candidate(
                 }
                 // The refinement cannot bring back a limit that clips nothing: when the best
                 // is one-sided, the other limit is tried at each level too.
+                variants.retain(keeps);
                 let best = best_grid(ctx, grid, variants, &free)?;
                 let Some((lo, hi)) = best.model.inputs[j].law.saturation else {
                     return Some((best, added));
@@ -919,6 +928,7 @@ fn fit_candidate(
                         others.push(with(&|l| l.saturation = Some(limits)));
                     }
                 }
+                others.retain(keeps);
                 let other = best_grid(ctx, grid, others, &free);
                 return Some(match other {
                     Some(o) if o.sse_fit < best.sse_fit => (o, added),
@@ -951,14 +961,7 @@ fn fit_candidate(
                 }
             }
         }
-        // An input effect that passes on less than INPUT_KEPT of the input's spread does
-        // not shape the input, it removes it (a rate limit far below the input's rates: the
-        // equation error then shrinks with the force it no longer has to explain).
-        let spread = signal::std(&st.interior(raw));
-        variants.retain(|m| {
-            let t = m.inputs[j].law.transform(raw, st.dt);
-            signal::std(&st.interior(&t)) >= INPUT_KEPT * spread
-        });
+        variants.retain(keeps);
         return best_grid(ctx, grid, variants, &free).map(|f| (f, added));
     }
     match cand.kind {
@@ -1212,13 +1215,14 @@ pub const PRACTICAL_MARGIN: f64 = 0.5;
 pub const INPUT_KEPT: f64 = 0.5;
 
 /// The least net work the force inputs may do on a specimen driven by force alone, as a
-/// share of the power they exchange with it ([`force_work_share`]): −0.5. A passive specimen only takes energy in, less what it held at the start; a
-/// force that takes out half of what it exchanges has the opposite sign to the model's (a
-/// load cell read in tension against a DOF positive in compression). A damper gives about
-/// +1 and a lightly damped oscillator a small positive share, so the check does not depend on
-/// the record beyond that physical bound. A wrong sign on a lightly damped record escapes it
-/// and is caught by the recalibration instead: net work below 0 with every mass and a
-/// damping that the record would make negative.
+/// share of the power they exchange with it ([`force_work_share`]): −0.5. A passive
+/// specimen only takes energy in, less what it held at the start; a force that takes out
+/// half of what it exchanges has the opposite sign to the model's (a load cell read in
+/// tension against a DOF positive in compression). A damper gives about +1 and a lightly
+/// damped oscillator a small positive share, so the check does not depend on the record
+/// beyond that physical bound. A wrong sign on a lightly damped record escapes it and is
+/// caught by the recalibration instead: net work below 0 with every mass and a damping that
+/// the record would make negative.
 pub const NET_WORK_FLOOR: f64 = -0.5;
 
 /// The net work of the force inputs on a specimen that no displacement input drives, as a
@@ -1692,13 +1696,13 @@ pub fn diagnose_with_progress(
     // Every mass the record fixes at or below 0 and a damping below 0, with net work out of
     // the specimen: the equations of motion hold with every sign reversed.
     if let Some((share, negative)) = work.as_ref().filter(|w| w.0 < 0.0) {
-        let masses: Vec<&Coef> = free0
+        let mut masses = free0
             .iter()
             .filter(|c| matches!(c, Coef::Mass(_)))
-            .collect();
+            .peekable();
         let held = |c: &Coef| recal_fit.bounded.contains(c);
-        if !masses.is_empty()
-            && masses.iter().all(|c| held(c))
+        if masses.peek().is_some()
+            && masses.all(held)
             && recal_fit.bounded.iter().any(|c| matches!(c, Coef::C(_)))
         {
             return Err(flipped_force(

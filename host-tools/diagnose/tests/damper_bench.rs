@@ -1,7 +1,6 @@
 //! Displacement-controlled damper tests as a damper test bench records them: the actuator
-//! moves the damper's rod through a programme of sinusoids (several frequencies and
-//! amplitudes, with short holds between them), a load cell measures the force, an LVDT the
-//! displacement. The engineer's model is the usual one for such a record (as for EMPS): one
+//! moves the damper's rod through a programme (with short holds between its steps), a load
+//! cell measures the force, an LVDT the displacement. The engineer's model is the usual one for such a record (as for EMPS): one
 //! DOF, a rough moving mass on a viscous damper to ground, force in, displacement out.
 //!
 //! The records are made here by laws written for this file alone (not the diagnosis's effect
@@ -9,9 +8,9 @@
 //! through a compliant band: an elastic-perfectly-plastic Jenkins element, so the force
 //! turns over a pre-sliding displacement at each reversal, plus a little viscous damping),
 //! and a magneto-rheological damper at two currents (Spencer et al. 1997's Bouc-Wen
-//! phenomenological model, `n = 2`, with its accumulator stiffness). The load cell sits at
-//! the fixed end, as on most benches: the measured force carries no rod inertia at all, so
-//! the model's mass is wrong by its whole value.
+//! phenomenological model, `n = 2`, with its accumulator stiffness). With the load cell at
+//! the fixed end, as on most benches, the measured force carries no rod inertia at all and
+//! the model's mass is wrong by its whole value; at the moving end it carries the rod's.
 //!
 //! Each case is drawn from a seed: the damper's size and pre-sliding displacement, the
 //! programme (sinusoids, constant-velocity triangles with rounded corners, band-limited
@@ -32,6 +31,11 @@ use std::f64::consts::PI;
 
 fn uniform(rng: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
     lo + (hi - lo) * rng.uniform()
+}
+
+/// The largest magnitude in `s`.
+fn peak(s: &[f64]) -> f64 {
+    s.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
 }
 
 fn log_uniform(rng: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
@@ -108,7 +112,7 @@ fn programme(kind: Programme, fs: f64, v_peak: f64, stroke: f64, rng: &mut Split
                 .collect();
             let rms = (raw.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
             let speed: Vec<f64> = raw.windows(2).map(|w| (w[1] - w[0]) * fs).collect();
-            let v_max = speed.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            let v_max = peak(&speed);
             let scale = (v_peak / v_max).min(stroke / (3.0 * rms));
             let ramp = (fs as usize).min(n / 4);
             x.extend((0..n).map(|i| fade(i, n, ramp) * scale * raw[i]));
@@ -224,7 +228,7 @@ struct Case {
     model: Model,
 }
 
-/// Noise, tare and rounding as a bench records them: the force with load-cell noise
+/// Noise and tare as a bench records them: the force with load-cell noise
 /// (`force_noise` × its peak, RMS) and a tare offset, the displacement with LVDT noise
 /// (`x_noise` × its peak) around a mid-stroke reading, both at `fs`.
 fn bench_record(
@@ -235,7 +239,6 @@ fn bench_record(
     x_noise: f64,
     rng: &mut SplitMix64,
 ) -> Record {
-    let peak = |s: &[f64]| s.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let (f_peak, x_peak) = (peak(f), peak(x));
     let t: Vec<f64> = (0..x.len()).map(|i| i as f64 / fs).collect();
     let tare = uniform(rng, -0.02, 0.02) * f_peak;
@@ -265,7 +268,7 @@ fn draw(seed: u64) -> Case {
     let v_peak = log_uniform(&mut rng, 0.05, 0.6);
     let x = programme(kind, fs, v_peak, stroke, &mut rng);
     let v: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) * fs).collect();
-    let v_max = v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let v_max = peak(&v);
     let (label, mut f, c_nominal) = if seed % 2 == 0 {
         let f_slip = log_uniform(&mut rng, 1e3, 15e3);
         let presliding = log_uniform(&mut rng, 5e-5, 1.5e-3);
@@ -325,7 +328,7 @@ fn draw(seed: u64) -> Case {
             "seed {seed}: {label}; {kind:?} at {fs} Hz, {:.0} s; noise: force {:.2} %, LVDT {:.3} mm",
             x.len() as f64 / fs,
             force_noise * 100.0,
-            x_noise * x.iter().fold(0.0_f64, |m, v| m.max(v.abs())) * 1e3
+            x_noise * peak(&x) * 1e3
         ),
         record,
         model: damper_model(mass, c),
