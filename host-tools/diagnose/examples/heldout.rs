@@ -2,14 +2,16 @@
 //! known hidden effects, and a harness that runs the diagnosis on them and scores it.
 //!
 //! ```text
-//! cargo run --release -p mil-diagnose --example heldout -- [--set dev|untouched]
+//! cargo run --release -p mil-diagnose --example heldout -- [--set dev|untouched|untouched2]
 //!     [--records N] [--matrix] [--only ID] [--write DIR] [--no-diagnose] [--verbose]
 //! ```
 //!
 //! # What it generates
 //!
 //! Each record is drawn from its seed (`--set dev`: seeds 1000 + id, `--set untouched`:
-//! 900000 + id, `--matrix`: 5000000 + id, disjoint for any sensible `--records`):
+//! 900000 + id, `--set untouched2`: 2000000 + id, `--matrix`: 5000000 + id, disjoint for
+//! any sensible `--records`). `untouched` was run once on the method of the session that
+//! first reported it; `untouched2` is kept for the method that followed:
 //!
 //! - a topology: `qc_disp` (quarter car on a road: body `x_s`, hub `x_u`, `suspension`,
 //!   `tyre` to the `road` displacement input; outputs `body`, `hub`, `tyre_force`),
@@ -79,6 +81,8 @@ use std::time::Instant;
 /// Seeds of the sets (kept disjoint).
 const DEV_SEED: u64 = 1000;
 const UNTOUCHED_SEED: u64 = 900_000;
+/// A second untouched set, for the method as it stands after the first was run (once).
+const UNTOUCHED2_SEED: u64 = 2_000_000;
 const MATRIX_SEED: u64 = 5_000_000;
 
 /// Relative tolerance of a recalibrated linear parameter.
@@ -117,7 +121,7 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
             "--verbose" => a.verbose = true,
             "-h" | "--help" => {
                 println!(
-                    "heldout [--set dev|untouched] [--records N] [--matrix] [--only ID] \
+                    "heldout [--set dev|untouched|untouched2] [--records N] [--matrix] [--only ID] \
                      [--write DIR] [--no-diagnose] [--verbose]"
                 );
                 std::process::exit(0);
@@ -125,8 +129,8 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
             other => return Err(format!("unknown argument {other:?}").into()),
         }
     }
-    if a.set != "dev" && a.set != "untouched" {
-        return Err(format!("--set {}: dev or untouched", a.set).into());
+    if !["dev", "untouched", "untouched2"].contains(&a.set.as_str()) {
+        return Err(format!("--set {}: dev, untouched or untouched2", a.set).into());
     }
     Ok(a)
 }
@@ -505,10 +509,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     let (label, scenarios): (String, Vec<Scenario>) = if args.matrix {
         ("matrix".into(), generator::matrix(MATRIX_SEED))
     } else {
-        let base = if args.set == "dev" {
-            DEV_SEED
-        } else {
-            UNTOUCHED_SEED
+        let base = match args.set.as_str() {
+            "dev" => DEV_SEED,
+            "untouched" => UNTOUCHED_SEED,
+            _ => UNTOUCHED2_SEED,
         };
         let n = args.records;
         (
