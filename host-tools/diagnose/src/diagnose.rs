@@ -5,7 +5,8 @@
 //!    ([`crate::split`]): both span the whole record, so the answer does not depend on the
 //!    record's order (an up-sweep and a down-sweep are split alike). Logged inputs drive
 //!    the simulations low-passed an octave above their signal band ([`prefilter_inputs`]),
-//!    so that their measurement noise is not mistaken for an effect.
+//!    so that their measurement noise is not mistaken for an effect; the equation error
+//!    applies input effects to the same low-passed inputs.
 //! 2. **Recalibration** of the linear parameters (masses when a measured force — a force
 //!    input, or an element's measured force, e.g. the tyre force — fixes the scale,
 //!    stiffnesses and dampings that are non-zero in the model, one constant force per DOF)
@@ -969,12 +970,13 @@ fn fit_candidate(
                 }
             }
             _ => {
-                // Rates at high quantiles of the input's rate, filtered like the states (the
-                // raw input's sample-to-sample rate is mostly its noise), up to the rarest
-                // events (bumps).
-                let d = signal::derivative(&u[j], st.dt);
+                // Rates at high quantiles of the rate of the input the limit acts on (the
+                // low-passed logged input), up to the rarest events (bumps).
+                let d = signal::derivative(raw, st.dt);
                 let a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
-                for p in [0.7, 0.9, 0.97, 0.99, 0.997, 0.999] {
+                for p in [
+                    0.7, 0.8, 0.9, 0.95, 0.97, 0.98, 0.99, 0.995, 0.997, 0.999, 0.9995,
+                ] {
                     let l = q(&a, p);
                     if l > 0.0 {
                         variants.push(with(&|law| law.rate_limit = Some(l)));
@@ -1650,7 +1652,7 @@ pub fn diagnose_with_progress(
     let len = record.len();
     // The equation error filters every regressor alike (inputs included); the simulations
     // are driven by the inputs low-passed at their own band edges.
-    let st = equation::estimate_states(model, record)?;
+    let mut st = equation::estimate_states(model, record)?;
     // A force column read with the opposite sign convention: refused when the energy says
     // so alone, or (below) with the recalibration's signs.
     let work = force_work_share(model, &st);
@@ -1665,6 +1667,14 @@ pub fn diagnose_with_progress(
     }
     let (prefiltered, input_cutoffs) = prefilter_inputs(model, record);
     let record = &prefiltered;
+    // The equation error applies the input effects to the inputs the simulations see (the
+    // low-passed logged inputs), then filters them like every regressor: a rate limit,
+    // saturation or play applied to the raw logged input would act on its measurement noise
+    // (whose sample-to-sample rate is most of a noisy input's rate) and fit worse than none.
+    for (inp, raw) in model.inputs.iter().zip(st.inputs_raw.iter_mut()) {
+        let col = record.column(&inp.column)?;
+        *raw = col.iter().map(|v| v * inp.gain).collect();
+    }
     // Blocks of at least four filter transients, a guard of one cut-off period.
     let split = Split::new(
         len,

@@ -360,6 +360,32 @@ fn hidden_road_play_is_named_on_the_input() {
 }
 
 #[test]
+fn hidden_road_rate_limit_is_named_on_the_noisy_logged_road() {
+    // The road actuator's velocity saturates at 0.5 m/s (its valve's flow limit): the kerb
+    // strikes (25 mm in 100 ms, 0.79 m/s at their steepest) come out slower than commanded,
+    // the random profile (about 0.1 m/s RMS) passes. The record logs the commanded road
+    // with its noise, whose sample-to-sample rate the limit must not act on.
+    let rate = 0.5;
+    let road = track_road(seed(23));
+    let (x, _) = wheel_response(&rate_limited(&road, rate), false);
+    let record = noisy_record("road", &road, &x, seed(23));
+    let d = run(
+        "rate limit on the road (track-like road)",
+        &wheel_model(),
+        &record,
+    );
+    assert_eq!(names(&d), [EffectKind::RateLimit]);
+    assert_eq!(d.named[0].named.element, "road", "placed on the input");
+    check_rel(
+        "rate",
+        param(&d, EffectKind::RateLimit, "rate_per_s"),
+        rate,
+        0.15,
+    );
+    check_gap(&d, 2.0);
+}
+
+#[test]
 fn hidden_input_rate_limit_is_named() {
     // The drive's force rate is limited to 6 kN/s (the commanded force's rate has an RMS
     // of about 4.3 kN/s).
@@ -440,7 +466,7 @@ fn hidden_friction_and_cubic_stiffness_are_both_named() {
 fn a_one_effect_stand_in_gives_way_to_the_two_effects() {
     let d = friction_and_cubic(
         "Coulomb friction + cubic stiffness, hysteresis first (noise)",
-        518,
+        27,
     );
     assert!(
         d.notes
