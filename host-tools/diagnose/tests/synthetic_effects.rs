@@ -326,6 +326,24 @@ fn hidden_unequal_input_saturation_is_named() {
     check_gap(&d, 2.0);
 }
 
+/// The wheel on the road `applied` (what reaches the wheel pan), recorded with the logged
+/// `road` (before the input effect) and noise, diagnosed; checks that exactly `kind` is
+/// named, on the road input.
+fn road_effect_named(
+    what: &str,
+    applied: &[f64],
+    road: &[f64],
+    seed: u64,
+    kind: EffectKind,
+) -> Diagnosis {
+    let (x, _) = wheel_response(applied, false);
+    let record = noisy_record("road", road, &x, seed);
+    let d = run(what, &wheel_model(), &record);
+    assert_eq!(names(&d), [kind]);
+    assert_eq!(d.named[0].named.element, "road", "placed on the input");
+    d
+}
+
 #[test]
 fn hidden_road_play_is_named_on_the_input() {
     // The road actuator reaches the wheel pan through a linkage with 1.5 mm of free play
@@ -341,15 +359,13 @@ fn hidden_road_play_is_named_on_the_input() {
             held
         })
         .collect();
-    let (x, _) = wheel_response(&played, false);
-    let record = noisy_record("road", &road, &x, seed(21));
-    let d = run(
+    let d = road_effect_named(
         "free play on the road (track-like road)",
-        &wheel_model(),
-        &record,
+        &played,
+        &road,
+        seed(21),
+        EffectKind::Backlash,
     );
-    assert_eq!(names(&d), [EffectKind::Backlash]);
-    assert_eq!(d.named[0].named.element, "road", "placed on the input");
     check_rel(
         "half gap",
         param(&d, EffectKind::Backlash, "half_gap_m"),
@@ -367,15 +383,13 @@ fn hidden_road_rate_limit_is_named_on_the_noisy_logged_road() {
     // with its noise, whose sample-to-sample rate the limit must not act on.
     let rate = 0.5;
     let road = track_road(seed(23));
-    let (x, _) = wheel_response(&rate_limited(&road, rate), false);
-    let record = noisy_record("road", &road, &x, seed(23));
-    let d = run(
+    let d = road_effect_named(
         "rate limit on the road (track-like road)",
-        &wheel_model(),
-        &record,
+        &rate_limited(&road, rate),
+        &road,
+        seed(23),
+        EffectKind::RateLimit,
     );
-    assert_eq!(names(&d), [EffectKind::RateLimit]);
-    assert_eq!(d.named[0].named.element, "road", "placed on the input");
     check_rel(
         "rate",
         param(&d, EffectKind::RateLimit, "rate_per_s"),
