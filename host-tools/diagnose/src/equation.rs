@@ -41,7 +41,9 @@ pub struct States {
     pub qd: Vec<Vec<f64>>,
     /// Accelerations.
     pub qdd: Vec<Vec<f64>>,
-    /// Inputs in SI units (gain applied, no input effects), unfiltered.
+    /// Inputs in SI units (gain applied, no input effects) as the record holds them, not
+    /// filtered like the states (`diagnose` passes its record with the logged inputs
+    /// low-passed, [`crate::diagnose::prefilter_inputs`]: the input effects act on those).
     pub inputs_raw: Vec<Vec<f64>>,
     /// Measured element forces (N, SI: the column over its gain): `(element, force)` per
     /// force output. Each adds an equation `F_e(x_e, ẋ_e, z_e) = measured` per sample,
