@@ -150,32 +150,61 @@ fn hidden_asymmetric_damping_is_named() {
     check_gap(&d, 2.0);
 }
 
-#[test]
-fn hidden_bump_stop_is_named() {
-    // A stop as stiff as the spring, engaging at 3 mm compression.
-    let (gap, kb) = (3.0e-3, 2.0e4);
+/// The oscillator with a stop of stiffness `kb` at `gap` (compression) and, if given, at
+/// `rebound` (extension) under the sweep, diagnosed as `what`: a bump stop must be named
+/// alone, its gaps within 10 % (0.3 mm, a small fraction of the displacement's range) and
+/// its stiffness within 15 %, and the gap must shrink.
+fn stop_named(what: &str, gap: f64, rebound: Option<f64>, kb: f64, seed: u64) {
     let f = sweep_force(30.0);
     let record = force_record(
         Effects {
             bump_stop: Some(BumpStop {
                 gap_m: gap,
                 stiffness_n_per_m: kb,
-                rebound_gap_m: None,
+                rebound_gap_m: rebound,
             }),
             ..Effects::default()
         },
         &f,
         &f,
-        seed(12),
+        seed,
     );
-    let d = run("bump stop (sweep)", &oscillator_model(), &record);
+    let d = run(what, &oscillator_model(), &record);
     assert_eq!(names(&d), [EffectKind::BumpStop]);
-    // Gap within 10 % (0.3 mm, a small fraction of the displacement's range), stop
-    // stiffness within 15 %.
     let k = EffectKind::BumpStop;
     check_rel("gap", param(&d, k, "gap_m"), gap, 0.10);
     check_rel("k_b", param(&d, k, "stiffness_n_per_m"), kb, 0.15);
+    if let Some(rebound) = rebound {
+        check_rel("rebound gap", param(&d, k, "rebound_gap_m"), rebound, 0.10);
+        // Its own stiffness when it differs from the compression side's.
+        let kr = d
+            .named
+            .iter()
+            .find(|n| n.named.effect == k)
+            .and_then(|n| n.named.parameters.get("rebound_stiffness_n_per_m").copied())
+            .unwrap_or(kb);
+        check_rel("rebound k_b", kr, kb, 0.15);
+    }
     check_gap(&d, 2.0);
+}
+
+#[test]
+fn hidden_bump_stop_is_named() {
+    // A stop as stiff as the spring, engaging at 3 mm compression.
+    stop_named("bump stop (sweep)", 3.0e-3, None, 2.0e4, seed(12));
+}
+
+#[test]
+fn hidden_stops_on_both_sides_are_named() {
+    // A stop at each end of the travel, as stiff as the spring: 3 mm in compression, 2 mm
+    // in extension. One stop alone cannot fit it (a cubic spring was named before).
+    stop_named(
+        "stops on both sides (sweep)",
+        3.0e-3,
+        Some(2.0e-3),
+        2.0e4,
+        seed(16),
+    );
 }
 
 #[test]
