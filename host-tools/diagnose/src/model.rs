@@ -628,6 +628,39 @@ impl Model {
         self.dofs.len()
     }
 
+    /// The slowest decay time (s) of the linear part of the model, `1 / min |Re λ|` over
+    /// the eigenvalues `λ` of `[0 I; −M⁻¹K −M⁻¹C]` (`K = Σ k_e a_e a_eᵀ` with each
+    /// element's total linear stiffness, `C` likewise with its linear damping): how long an
+    /// error in the initial state takes to fall by `e`. `None` when a mode does not decay
+    /// (an undamped or unrestrained direction, a non-positive mass).
+    pub fn slowest_decay_s(&self) -> Option<f64> {
+        let n = self.n();
+        if n == 0 || !self.mass.iter().all(|m| *m > 0.0) {
+            return None;
+        }
+        let mut a = nalgebra::DMatrix::<f64>::zeros(2 * n, 2 * n);
+        for i in 0..n {
+            a[(i, n + i)] = 1.0;
+        }
+        for e in &self.elements {
+            let (k, c) = (e.law.stiffness_total(), e.law.c);
+            for i in 0..n {
+                for j in 0..n {
+                    a[(n + i, j)] -= k * e.a[i] * e.a[j] / self.mass[i];
+                    a[(n + i, n + j)] -= c * e.a[i] * e.a[j] / self.mass[i];
+                }
+            }
+        }
+        if !a.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let eig = a.complex_eigenvalues();
+        let fastest = eig.iter().map(|l| l.norm()).fold(0.0, f64::max);
+        let slowest = eig.iter().map(|l| -l.re).fold(f64::INFINITY, f64::min);
+        // (A rate below 1e-9 of the fastest mode is a root at 0 or on the imaginary axis.)
+        (slowest > 1e-9 * fastest && slowest.is_finite()).then(|| 1.0 / slowest)
+    }
+
     /// Whether the linear stiffness matrix `Σ k_e a_e a_eᵀ` is positive definite, i.e.
     /// every DOF is restrained and a free simulation of the model settles (with damping).
     /// A free mass driven by a force (no spring to ground) is not.
@@ -651,5 +684,36 @@ impl Model {
         let eig = k.symmetric_eigenvalues();
         let max = eig.iter().cloned().fold(0.0, f64::max);
         max > 0.0 && eig.iter().all(|&v| v > 1e-9 * max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn oscillator(m: f64, k: f64, c: f64) -> Model {
+        Model::from_toml(&format!(
+            "name = \"o\"\n[[dof]]\nname = \"x\"\nmass = {m}\n\
+             [[element]]\nname = \"s\"\nupper = \"x\"\nlower = \"ground\"\n\
+             stiffness_n_per_m = {k}\ndamping_n_s_per_m = {c}\n\
+             [[input]]\nname = \"f\"\nkind = \"force\"\ncolumn = \"f\"\nat = \"x\"\n\
+             [[output]]\ncolumn = \"x\"\nkind = \"displacement\"\nof = \"x\"\n"
+        ))
+        .expect("model")
+    }
+
+    /// An underdamped oscillator decays in `2 m / c`; an overdamped one at its slow root
+    /// `(c − √(c² − 4 m k)) / (2 m)`; without damping or without a spring nothing decays.
+    #[test]
+    fn the_slowest_decay_is_that_of_the_slowest_root() {
+        let decay = |m, k, c| oscillator(m, k, c).slowest_decay_s();
+        let under = decay(76.0, 4.9e4, 176.0).expect("underdamped");
+        assert!((under - 2.0 * 76.0 / 176.0).abs() < 1e-9 * under, "{under}");
+        let (m, k, c) = (1.0, 100.0, 50.0);
+        let over = decay(m, k, c).expect("overdamped");
+        let slow = (c - (c * c - 4.0 * m * k).sqrt()) / (2.0 * m);
+        assert!((over - 1.0 / slow).abs() < 1e-9 * over, "{over}");
+        assert_eq!(decay(2.0, 1.0e4, 0.0), None);
+        assert_eq!(decay(2.0, 0.0, 10.0), None);
     }
 }

@@ -392,7 +392,7 @@ pub fn simulate(
     range: std::ops::Range<usize>,
     initial: Option<(&[f64], &[f64])>,
 ) -> Result<Simulation> {
-    run(model, record, inputs, range, initial, true)
+    run(model, record, inputs, range, initial, true, &[])
 }
 
 /// [`simulate`] recording the outputs only ([`Simulation::q`] and [`Simulation::qd`] are
@@ -407,7 +407,22 @@ pub fn simulate_outputs(
     range: std::ops::Range<usize>,
     initial: Option<(&[f64], &[f64])>,
 ) -> Result<Simulation> {
-    run(model, record, inputs, range, initial, false)
+    run(model, record, inputs, range, initial, false, &[])
+}
+
+/// [`simulate_outputs`] from DOF positions `q0`, velocities `qd0` and hysteretic states
+/// `z0` (one per element with hysteresis, in the elements' order) at the first sample.
+///
+/// # Errors
+/// As [`simulate`].
+pub fn simulate_outputs_from(
+    model: &Model,
+    record: &Record,
+    inputs: &[Vec<f64>],
+    range: std::ops::Range<usize>,
+    (q0, qd0, z0): (&[f64], &[f64], &[f64]),
+) -> Result<Simulation> {
+    run(model, record, inputs, range, Some((q0, qd0)), false, z0)
 }
 
 fn run(
@@ -417,11 +432,12 @@ fn run(
     range: std::ops::Range<usize>,
     initial: Option<(&[f64], &[f64])>,
     states: bool,
+    z0: &[f64],
 ) -> Result<Simulation> {
     let plan = Plan::new(model, record.dt, states);
     // The small models get a copy of the integrator with their dimensions as constants;
     // the others share one.
-    let span = (record, inputs, range, initial);
+    let span = (record, inputs, range, initial, z0);
     match plan.n {
         1 => plan.integrate(Fixed::<1, 2>, span),
         2 => plan.integrate(Fixed::<2, 4>, span),
@@ -474,19 +490,21 @@ impl Dims for Dynamic {
     }
 }
 
-/// What [`Plan::integrate`] runs over: the record, its prepared inputs, the sample range
-/// and the initial DOF positions and velocities (as [`simulate`] takes them).
+/// What [`Plan::integrate`] runs over: the record, its prepared inputs, the sample range,
+/// the initial DOF positions and velocities (as [`simulate`] takes them) and the initial
+/// hysteretic states (as [`simulate_outputs_from`] takes them; empty: 0).
 type Span<'r> = (
     &'r Record,
     &'r [Vec<f64>],
     std::ops::Range<usize>,
     Option<(&'r [f64], &'r [f64])>,
+    &'r [f64],
 );
 
 impl Plan<'_> {
     /// Integrates over `span` with `dims` [`Plan::n`] DOFs.
     fn integrate<S: Dims>(&self, dims: S, span: Span<'_>) -> Result<Simulation> {
-        let (record, inputs, range, initial) = span;
+        let (record, inputs, range, initial, z0) = span;
         let n = dims.n();
         assert_eq!(n, self.n, "integrator DOFs");
         let (dt, sub) = (record.dt, self.substeps);
@@ -534,6 +552,9 @@ impl Plan<'_> {
         if let Some((q0, qd0)) = initial {
             s.m[..n].copy_from_slice(q0);
             s.m[n..].copy_from_slice(qd0);
+        }
+        for (z, v) in s.z.iter_mut().zip(z0) {
+            *z = *v;
         }
         // The inputs at the sample, at the next sample, their rates and interpolated.
         let ni = inputs.len();
@@ -1070,11 +1091,47 @@ mod tests {
             let initial = q0.as_ref().map(|(q, qd)| (&q[..], &qd[..]));
             for states in [true, false] {
                 let want = reference::run(model, record, &inputs, range.clone(), initial, states);
-                let got = run(model, record, &inputs, range.clone(), initial, states);
+                let got = run(model, record, &inputs, range.clone(), initial, states, &[]);
                 let what = format!("{what}, samples {range:?}, states {states}");
                 assert_same(&got.expect(&what), &want.expect(&what), &what);
             }
         }
+    }
+
+    /// A hysteretic state given at the start acts as the element's force `k_h z₀` on a
+    /// model at rest: `|y| = k_h z₀ t² / (2 m)` after a short time `t` (ω t = 0.2, where the
+    /// spring's own restoring force is still 0.3 % of it), opposite for `−z₀`, and nothing
+    /// moves from `z₀ = 0`.
+    #[test]
+    fn an_initial_hysteretic_state_acts_as_its_force() {
+        let mut model = example("boucwen.toml");
+        let law = &mut model.elements[0].law;
+        (law.k, law.k_h) = (4.0e4, 4.0e4);
+        law.hysteresis = Some(BoucWen {
+            a: 1.0,
+            beta: 500.0,
+            gamma: 500.0,
+            n: 1.0,
+        });
+        let k_h = law.k_h;
+        let len = 16;
+        let t: Vec<f64> = (0..len).map(|i| i as f64 * 1e-3).collect();
+        let record = Record::new(&t, vec!["u".into()], vec![vec![0.0; len]]).expect("record");
+        let inputs = prepare_inputs(&model, &record).expect("inputs");
+        let from = |z0: f64| {
+            let sim =
+                simulate_outputs_from(&model, &record, &inputs, 0..len, (&[0.0], &[0.0], &[z0]));
+            sim.expect("simulation").outputs[0][1]
+        };
+        assert_eq!(from(0.0), 0.0);
+        let z0 = 1e-4;
+        let want = k_h * z0 * 1e-6 / (2.0 * model.mass[0]);
+        let (up, down) = (from(z0), from(-z0));
+        assert!(
+            (up.abs() - want).abs() <= 0.01 * want,
+            "{up} against {want}"
+        );
+        assert!((up + down).abs() <= 1e-6 * want, "{up} and {down}");
     }
 
     #[test]
@@ -1146,7 +1203,7 @@ mod tests {
         let inputs = prepare_inputs(&model, &record).expect("inputs");
         for states in [true, false] {
             let want = reference::run(&model, &record, &inputs, 0..3000, None, states);
-            let got = run(&model, &record, &inputs, 0..3000, None, states);
+            let got = run(&model, &record, &inputs, 0..3000, None, states, &[]);
             let (want, got) = (want.unwrap_err(), got.unwrap_err());
             assert!(want.to_string().contains("diverged"), "{want}");
             assert_eq!(got.to_string(), want.to_string());

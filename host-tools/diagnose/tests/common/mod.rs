@@ -52,13 +52,19 @@ impl IdealInterface for ForceFromInput {
 /// The oscillator on the simulated rig with `effects` on its spring-damper, driven by the
 /// force on its input 0 (N), at rest; RK4 or exact steps of 0.1 ms.
 pub fn oscillator_plant(effects: Effects) -> Plant {
+    oscillator_plant_of(MASS, K, C, effects)
+}
+
+/// [`oscillator_plant`] with mass `mass` (kg), stiffness `k` (N/m) and damping `c`
+/// (N·s/m).
+pub fn oscillator_plant_of(mass: f64, k: f64, c: f64, effects: Effects) -> Plant {
     let specimen = Specimen {
         dofs: vec!["x".into()],
-        mass: vec![vec![MASS]],
+        mass: vec![vec![mass]],
         static_force: vec![0.0],
         elements: vec![PlacedElement {
             name: "spring".into(),
-            element: Element::linear(K, C).with_effects(effects),
+            element: Element::linear(k, c).with_effects(effects),
             // Compression: the mass moving down towards the ground.
             dof_coefficients: vec![-1.0],
             input_coefficients: vec![0.0],
@@ -72,6 +78,12 @@ pub fn oscillator_plant(effects: Effects) -> Plant {
 /// The engineer's oscillator model: linear, every parameter off (mass +10 %, stiffness
 /// −12 %, damping +15 %).
 pub fn oscillator_model() -> Model {
+    oscillator_model_of(MASS * 1.10, K * 0.88, C * 1.15)
+}
+
+/// A linear oscillator model of mass `m` (kg), stiffness `k` (N/m), damping `c` (N·s/m),
+/// laid out as [`oscillator_plant`] (force `force` in, displacement `x` out).
+pub fn oscillator_model_of(m: f64, k: f64, c: f64) -> Model {
     Model::from_toml(&format!(
         r#"
 name = "oscillator"
@@ -93,10 +105,7 @@ at = "x"
 column = "x"
 kind = "displacement"
 of = "x"
-"#,
-        m = MASS * 1.10,
-        k = K * 0.88,
-        c = C * 1.15
+"#
     ))
     .expect("model")
 }
@@ -158,7 +167,12 @@ pub fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
 /// Displacement (m) of the oscillator with `effects`, driven by the force `f` (N), from
 /// rest; the force is linearly interpolated between samples.
 pub fn oscillator_response(effects: Effects, f: &[f64]) -> Vec<f64> {
-    let mut plant = oscillator_plant(effects);
+    plant_response(oscillator_plant(effects), f)
+}
+
+/// Displacement (m) of DOF 0 of `plant` driven on its input 0 by the force `f` (N), from
+/// rest; the force is linearly interpolated between samples.
+pub fn plant_response(mut plant: Plant, f: &[f64]) -> Vec<f64> {
     let dt = 1.0 / FS;
     let mut x = Vec::with_capacity(f.len());
     for i in 0..f.len() {
