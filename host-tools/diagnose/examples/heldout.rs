@@ -4,19 +4,21 @@
 //! ```text
 //! cargo run --release -p mil-diagnose --example heldout --
 //!     [--set dev|untouched|untouched2|untouched3|untouched4]
-//!     [--records N] [--matrix] [--only ID] [--write DIR] [--no-diagnose] [--verbose]
+//!     [--records N] [--matrix] [--pairs] [--only ID] [--write DIR] [--no-diagnose] [--verbose]
 //! ```
 //!
 //! # What it generates
 //!
 //! Each record is drawn from its seed (`--set dev`: seeds 1000 + id, `--set untouched`:
 //! 900000 + id, `--set untouched2`: 2000000 + id, `--set untouched3`: 3000000 + id,
-//! `--set untouched4`: 4000000 + id, `--matrix`: 5000000 + id, disjoint for any sensible
-//! `--records`). `untouched` was run once on the method of the session that first reported
-//! it, `untouched2` once on the method that followed, `untouched3` once on the next (the
-//! closing margin, stops on both sides), `untouched4` once on the one after (the
-//! output-error windows placed by the outputs' power and warmed up over the slowest
-//! decay):
+//! `--set untouched4`: 4000000 + id, `--matrix`: 5000000 + id, `--pairs`: 7000000 + id,
+//! disjoint for any sensible `--records`). `untouched` was run once on the method of the
+//! session that first reported it, `untouched2` once on the method that followed,
+//! `untouched3` once on the next (the closing margin, stops on both sides), `untouched4`
+//! once on the one after (the output-error windows placed by the outputs' power and warmed
+//! up over the slowest decay). `--pairs` is a development set of pairs only: every element
+//! effect with every partner the random sets pair it with, per topology, the excitation and
+//! the model cycling with the index:
 //!
 //! - a topology: `qc_disp` (quarter car on a road: body `x_s`, hub `x_u`, `suspension`,
 //!   `tyre` to the `road` displacement input; outputs `body`, `hub`, `tyre_force`),
@@ -93,6 +95,8 @@ const UNTOUCHED3_SEED: u64 = 3_000_000;
 /// A fourth, for the method after the third was run (once).
 const UNTOUCHED4_SEED: u64 = 4_000_000;
 const MATRIX_SEED: u64 = 5_000_000;
+/// The pair matrix (every element effect with every partner, once).
+const PAIRS_SEED: u64 = 7_000_000;
 
 /// Relative tolerance of a recalibrated linear parameter.
 const RECAL_TOLERANCE: f64 = 0.05;
@@ -101,6 +105,7 @@ struct Args {
     set: String,
     records: usize,
     matrix: bool,
+    pairs: bool,
     only: Option<usize>,
     write: Option<PathBuf>,
     diagnose: bool,
@@ -112,6 +117,7 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
         set: "dev".into(),
         records: 60,
         matrix: false,
+        pairs: false,
         only: None,
         write: None,
         diagnose: true,
@@ -124,13 +130,14 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
             "--set" => a.set = value()?,
             "--records" => a.records = value()?.parse()?,
             "--matrix" => a.matrix = true,
+            "--pairs" => a.pairs = true,
             "--only" => a.only = Some(value()?.parse()?),
             "--write" => a.write = Some(PathBuf::from(value()?)),
             "--no-diagnose" => a.diagnose = false,
             "--verbose" => a.verbose = true,
             "-h" | "--help" => {
                 println!(
-                    "heldout [--set dev|untouched|untouched2|untouched3|untouched4] [--records N] [--matrix] [--only ID] \
+                    "heldout [--set dev|untouched|untouched2|untouched3|untouched4] [--records N] [--matrix] [--pairs] [--only ID] \
                      [--write DIR] [--no-diagnose] [--verbose]"
                 );
                 std::process::exit(0);
@@ -521,6 +528,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     let args = parse_args()?;
     let (label, scenarios): (String, Vec<Scenario>) = if args.matrix {
         ("matrix".into(), generator::matrix(MATRIX_SEED))
+    } else if args.pairs {
+        ("pairs".into(), generator::pairs(PAIRS_SEED))
     } else {
         let base = match args.set.as_str() {
             "dev" => DEV_SEED,

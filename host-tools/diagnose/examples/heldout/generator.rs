@@ -337,6 +337,34 @@ pub fn matrix(base: u64) -> Vec<Scenario> {
     out
 }
 
+/// The pair matrix: every element effect × every partner the random sets pair it with
+/// ([`draw_scenario`]) × topology, one record each, the excitation and the model cycling
+/// through their values with the record's index; seeds from `base`.
+pub fn pairs(base: u64) -> Vec<Scenario> {
+    let mut out = Vec::new();
+    for topology in Topology::ALL {
+        let elements: Vec<Effect> = topology
+            .effects()
+            .into_iter()
+            .filter(|e| e.is_element())
+            .collect();
+        for element in elements {
+            for partner in topology.partners() {
+                let id = out.len();
+                out.push(Scenario {
+                    id,
+                    seed: base + id as u64,
+                    topology,
+                    excitation: Excitation::ALL[id % Excitation::ALL.len()],
+                    model: [ModelKind::Exact, ModelKind::Off][(id / Excitation::ALL.len()) % 2],
+                    effects: vec![element, partner],
+                });
+            }
+        }
+    }
+    out
+}
+
 /// A generated record with everything the harness compares against.
 pub struct Generated {
     /// The record as CSV text (`time` first).
