@@ -33,7 +33,11 @@
 //!    correlation time (so filtered, correlated residuals do not count as independent
 //!    samples).
 //! 5. **Confirmation in simulation** (models restrained on their own): the
-//!    [`SELECTION_BRANCHES`] best candidates with `Δ < 0` are each refined by output error
+//!    [`SELECTION_BRANCHES`] best candidates with `Δ < 0` (filled up, while the model
+//!    misses more than [`PRACTICAL_MARGIN`] of the noise beyond it on some output, with the
+//!    candidates that lower the equation error without reaching `Δ < 0`, best first: an
+//!    effect brief in time but lasting in its consequences, such as a wheel off the road
+//!    for a few samples, is weak in the equation error) are each refined by output error
 //!    (Levenberg–Marquardt on the simulated outputs at the fitting blocks, the effect's and
 //!    the linear parameters free) and must pay off on the validation blocks' simulated
 //!    outputs: the same criterion against the current stage, and a practical margin — on
@@ -53,7 +57,9 @@
 //!    removes any effect whose removal (the rest refined by output error) does not fail the
 //!    same test, or whose strength (e.g. `k3`, a friction force, a gap; see `strength`) is
 //!    not distinguishable from none by a Wald test with the criterion's penalty
-//!    (`z² < ln n_eff`). Models that are not restrained (a free mass) are selected by the
+//!    (`z² < ln n_eff`); when it drops an effect while rounds are left, the forward search
+//!    goes on from the reduced model for those rounds and the elimination runs again
+//!    (once: [`STEPWISE_PASSES`]). Models that are not restrained (a free mass) are selected by the
 //!    equation-error criterion alone. No threshold depends on the record.
 //! 6. **Gap**: NRMSE of the simulated outputs on the validation blocks (restrained models),
 //!    else of the inverse-dynamics force prediction (equation-error residual over the
@@ -1004,11 +1010,12 @@ fn fit_candidate(
                 }
             }
             _ => {
-                // Rates at high quantiles of the rate of the input the limit acts on (the
-                // low-passed logged input), up to the rarest events (bumps).
+                // Rates at quantiles of the rate of the input the limit acts on (the
+                // low-passed logged input), from a limit most of the record reaches (a sweep
+                // whose upper half of frequencies is limited) up to the rarest events (bumps).
                 let d = signal::derivative(raw, st.dt);
                 let a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
-                for p in [0.7, 0.9, 0.97, 0.99, 0.997, 0.999] {
+                for p in [0.3, 0.5, 0.7, 0.9, 0.97, 0.99, 0.997, 0.999] {
                     let l = q(&a, p);
                     if l > 0.0 {
                         variants.push(with(&|law| law.rate_limit = Some(l)));
@@ -1135,7 +1142,8 @@ fn fit_candidate(
             let tension: Vec<f64> = (0..sig[e].x.len())
                 .map(|t| -unpacked.force_unclipped(sig[e].x[t], sig[e].v[t], sig[e].z[t]))
                 .collect();
-            for p in [0.8, 0.9, 0.95, 0.98, 0.995] {
+            // Down to a wheel off the road for a few tenths of a per cent of the record.
+            for p in [0.8, 0.9, 0.95, 0.98, 0.995, 0.999, 0.9997] {
                 let pre = q(&tension, p);
                 if pre > 0.0 {
                     let mut m = model.clone();
@@ -1433,6 +1441,10 @@ impl Evaluation {
 /// that the one with fewer parameters is named: 2, the conventional two-sided 95 % level
 /// (not tuned to any record).
 pub const PARSIMONY_Z: f64 = 2.0;
+
+/// How many times the forward search goes on after the backward elimination dropped an
+/// effect (each pass then eliminates again): bounds the cost, and a search cannot cycle.
+pub const STEPWISE_PASSES: usize = 1;
 
 /// Standard error of `ln(SSE_a / SSE_b)` for two models evaluated on the same validation
 /// samples (delta method on the per-sample difference of the normalised squared residuals
@@ -2049,6 +2061,9 @@ pub fn diagnose_with_progress(
                 by_candidate[i] = fit;
             }
             let mut ranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
+            // Candidates the equation error does not rank but that fit its validation
+            // blocks better (see EXPLORE_EXCESS).
+            let mut unranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
             for (cand, fit) in cands.into_iter().zip(by_candidate) {
                 let Some((fit, added)) = fit else {
                     continue;
@@ -2069,9 +2084,28 @@ pub fn diagnose_with_progress(
                 let beats_rival = rival.is_none_or(|(_, sse)| fit.sse_val < sse);
                 if crit.is_finite() && crit < 0.0 && beats_rival {
                     ranked.push((crit, ratio, fit, cand, added));
+                } else if crit.is_finite() && ratio < 1.0 && beats_rival {
+                    unranked.push((crit, ratio, fit, cand, added));
                 }
             }
             ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+            // While the model misses enough beyond the noise in simulation that a step could
+            // still pay off ([`PRACTICAL_MARGIN`] of the noise on some output), the equation
+            // error's blind spots (an effect brief in time but lasting in its consequences,
+            // such as a wheel off the road for a few samples) are searched too: the
+            // candidates it does not rank but that reduce its validation error, best first
+            // by that reduction, fill the branches up to SELECTION_BRANCHES.
+            let room_to_pay = cur_eval.as_ref().is_some_and(|ev| {
+                ev.sse
+                    .iter()
+                    .zip(&sim.noise_sse)
+                    .any(|(sse, noise)| *sse >= (1.0 + PRACTICAL_MARGIN) * noise)
+            });
+            if oe && room_to_pay && ranked.len() < SELECTION_BRANCHES {
+                unranked.sort_by(|a, b| a.1.total_cmp(&b.1));
+                let room = SELECTION_BRANCHES - ranked.len();
+                ranked.extend(unranked.into_iter().take(room));
+            }
             let chosen = if oe {
                 // The best few by the equation error are each refined by output error and must
                 // pay off in simulation on the validation blocks; the best of them by the
@@ -2313,84 +2347,77 @@ pub fn diagnose_with_progress(
             }
         }
     }
-    let Branch {
-        current,
-        mut updated,
-        mut cur_eval,
-        covariance: (mut cov_params, mut cov),
-        mut named,
-        mut added_of,
-    } = main;
-    // Backward elimination in simulation: each named effect is removed from the final model
-    // in turn and the rest refined by output error from the final parameters; an effect is
-    // dropped when the model without it, equally refined, is as good by the same test (a
-    // later effect may explain what an earlier one stood in for), or when its strength (e.g.
-    // `k3`, a friction force, a gap; see `strength`) is not distinguishable from none by a
-    // Wald test with the criterion's penalty (`z² < ln n_eff`).
-    if oe && named.len() > 1 {
-        log(0.9, "backward elimination by simulation");
-        let mut free_now = current.free.clone();
-        let without = |updated: &Model, free_now: &[Coef], what: EffectKind, target: &str| {
-            let mut m_wo = updated.clone();
-            if updated.is_input(target) {
-                if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
-                    inp.law.remove(what);
-                }
-            } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target) {
-                el.law.remove(what);
-            }
-            let coefs_with = effect_coefs(updated);
-            let coefs_wo = effect_coefs(&m_wo);
-            let free_wo: Vec<Coef> = free_now
+    // Stepwise: the backward elimination below, and when it drops an effect while rounds
+    // are left, the forward search goes on from the reduced model for those rounds (an
+    // effect named early as a stand-in and dropped once a later one explains the record
+    // leaves room for the one the record still lacks), then the elimination again.
+    let mut passes = 0;
+    let (mut updated, cov_params, cov, mut named) = loop {
+        let Branch {
+            current,
+            mut updated,
+            mut cur_eval,
+            covariance: (mut cov_params, mut cov),
+            mut named,
+            mut added_of,
+        } = main;
+        let mut dropped: Vec<(EffectKind, String)> = Vec::new();
+        // Backward elimination in simulation: each named effect is removed from the final model
+        // in turn and the rest refined by output error from the final parameters; an effect is
+        // dropped when the model without it, equally refined, is as good by the same test (a
+        // later effect may explain what an earlier one stood in for), or when its strength (e.g.
+        // `k3`, a friction force, a gap; see `strength`) is not distinguishable from none by a
+        // Wald test with the criterion's penalty (`z² < ln n_eff`).
+        if oe && named.len() > 1 {
+            log(0.9, "backward elimination by simulation");
+            let mut free_now = current.free.clone();
+            let without = |updated: &Model, free_now: &[Coef], what: EffectKind, target: &str| {
+                let (m_wo, free_wo) = without_effect(updated, free_now, what, target);
+                refine_output_error(&m_wo, &free_wo, &refine_on, threads, None)
+                    .ok()
+                    .and_then(|(m2, pc)| {
+                        let ev = sim.evaluate(&m2)?;
+                        Some((m2, pc, ev, free_wo))
+                    })
+            };
+            // Every removal from the final model, refined concurrently; they stay valid until an
+            // effect is dropped (which changes the model the rest start from).
+            let effects: Vec<(EffectKind, String)> = named
                 .iter()
-                .copied()
-                .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
+                .map(|n| (n.named.effect, n.named.element.clone()))
                 .collect();
-            refine_output_error(&m_wo, &free_wo, &refine_on, threads, None)
-                .ok()
-                .and_then(|(m2, pc)| {
-                    let ev = sim.evaluate(&m2)?;
-                    Some((m2, pc, ev, free_wo))
-                })
-        };
-        // Every removal from the final model, refined concurrently; they stay valid until an
-        // effect is dropped (which changes the model the rest start from).
-        let effects: Vec<(EffectKind, String)> = named
-            .iter()
-            .map(|n| (n.named.effect, n.named.element.clone()))
+            let mut speculative: Vec<Option<_>> = parallel::map(
+                &effects,
+                threads,
+                |(what, target)| without(&updated, &free_now, *what, target),
+                |_, _| {},
+            )
+            .into_iter()
+            .map(Some)
             .collect();
-        let mut speculative: Vec<Option<_>> = parallel::map(
-            &effects,
-            threads,
-            |(what, target)| without(&updated, &free_now, *what, target),
-            |_, _| {},
-        )
-        .into_iter()
-        .map(Some)
-        .collect();
-        let mut dropped_any = false;
-        for i in (0..named.len()).rev() {
-            let Some(with) = cur_eval.clone() else { break };
-            let what = named[i].named.effect;
-            let target = named[i].named.element.clone();
-            let n_eff_with = with.n_eff();
-            let wald = strength(&updated, what, &target).and_then(|par| {
-                let k = cov_params.iter().position(|x| *x == par)?;
-                let var = cov[(k, k)];
-                let v = par.get(&updated);
-                (var.is_finite() && var > 0.0).then(|| v * v / var)
-            });
-            let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
-            let refined_without = match speculative.get_mut(i).and_then(Option::take) {
-                Some(r) if !dropped_any => r,
-                _ => without(&updated, &free_now, what, &target),
-            };
-            let Some((m2, pc, ev_wo, free_wo)) = refined_without else {
-                continue;
-            };
-            let verdict = sim.pays_off(&ev_wo, &with, added_of[i]);
-            if weak || !verdict.confirmed {
-                let why = match wald {
+            let mut dropped_any = false;
+            for i in (0..named.len()).rev() {
+                let Some(with) = cur_eval.clone() else { break };
+                let what = named[i].named.effect;
+                let target = named[i].named.element.clone();
+                let n_eff_with = with.n_eff();
+                let wald = strength(&updated, what, &target).and_then(|par| {
+                    let k = cov_params.iter().position(|x| *x == par)?;
+                    let var = cov[(k, k)];
+                    let v = par.get(&updated);
+                    (var.is_finite() && var > 0.0).then(|| v * v / var)
+                });
+                let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
+                let refined_without = match speculative.get_mut(i).and_then(Option::take) {
+                    Some(r) if !dropped_any => r,
+                    _ => without(&updated, &free_now, what, &target),
+                };
+                let Some((m2, pc, ev_wo, free_wo)) = refined_without else {
+                    continue;
+                };
+                let verdict = sim.pays_off(&ev_wo, &with, added_of[i]);
+                if weak || !verdict.confirmed {
+                    let why = match wald {
                     Some(z2) if weak => format!(
                         "its strength is within {:.2} standard errors of none (Wald z² {z2:.2} < ln n_eff = {:.1})",
                         z2.sqrt(),
@@ -2398,17 +2425,56 @@ pub fn diagnose_with_progress(
                     ),
                     _ => "the other effects refined without it do about as well in simulation".into(),
                 };
-                notes.push(format!("{what}: dropped, {why} ({})", verdict.text));
-                named.remove(i);
-                added_of.remove(i);
-                updated = m2;
-                free_now = free_wo;
-                (cov_params, cov) = pc;
-                cur_eval = Some(ev_wo);
-                dropped_any = true;
+                    notes.push(format!("{what}: dropped, {why} ({})", verdict.text));
+                    named.remove(i);
+                    added_of.remove(i);
+                    updated = m2;
+                    free_now = free_wo;
+                    (cov_params, cov) = pc;
+                    cur_eval = Some(ev_wo);
+                    dropped_any = true;
+                    dropped.push((what, target));
+                }
             }
         }
-    }
+        if dropped.is_empty() || passes >= STEPWISE_PASSES || named.len() >= options.max_effects {
+            break (updated, cov_params, cov, named);
+        }
+        passes += 1;
+        // The search goes on from the equation-error fit of the reduced model.
+        let (mut model_ee, mut free_ee) = (current.model.clone(), current.free.clone());
+        free_ee.extend(current.bounded.iter().copied());
+        for (what, target) in &dropped {
+            (model_ee, free_ee) = without_effect(&model_ee, &free_ee, *what, target);
+        }
+        let before = named.len();
+        main = Branch {
+            current: sctx.fit(model_ee, &free_ee),
+            updated,
+            cur_eval,
+            covariance: (cov_params, cov),
+            named,
+            added_of,
+        };
+        log(0.9, "the search goes on from the reduced model");
+        search(
+            &mut main,
+            before..options.max_effects,
+            None,
+            &mut notes,
+            &mut scores,
+            true,
+        );
+        if main.named.len() == before {
+            let Branch {
+                updated,
+                covariance: (cov_params, cov),
+                named,
+                ..
+            } = main;
+            break (updated, cov_params, cov, named);
+        }
+    };
     let basis = if restrained && updated.is_restrained() {
         GapBasis::Simulation
     } else {
@@ -2611,6 +2677,27 @@ pub fn diagnose_with_progress(
 
 /// `m` with no mass, bias or element force and its inputs as measured (no input effect):
 /// its equation-error residual is the measured generalised forces.
+/// `m` without the effect `what` on `target` (an element or an input), and `free` without
+/// that effect's coefficients.
+fn without_effect(m: &Model, free: &[Coef], what: EffectKind, target: &str) -> (Model, Vec<Coef>) {
+    let mut m_wo = m.clone();
+    if m.is_input(target) {
+        if let Some(inp) = m_wo.inputs.iter_mut().find(|x| x.name == target) {
+            inp.law.remove(what);
+        }
+    } else if let Some(el) = m_wo.elements.iter_mut().find(|x| x.name == target) {
+        el.law.remove(what);
+    }
+    let coefs_with = effect_coefs(m);
+    let coefs_wo = effect_coefs(&m_wo);
+    let free_wo = free
+        .iter()
+        .copied()
+        .filter(|c| !coefs_with.contains(c) || coefs_wo.contains(c))
+        .collect();
+    (m_wo, free_wo)
+}
+
 fn strip(m: &Model) -> Model {
     let mut s = m.clone();
     for e in &mut s.elements {
@@ -3345,6 +3432,30 @@ mod resolution_tests {
             ..delay
         };
         assert_eq!(unresolved(&m, rate, dt), None);
+    }
+
+    #[test]
+    fn removing_an_effect_frees_only_its_own_coefficients() {
+        let mut m = Model::from_toml(include_str!("../examples/oscillator.toml")).expect("model");
+        m.elements[0].law.k3 = Some(1e6);
+        m.elements[0].law.coulomb = Some((2.0, 1e-3));
+        m.inputs[0].law.delay_s = Some(2e-3);
+        let free = [
+            Coef::Mass(0),
+            Coef::K(0),
+            Coef::C(0),
+            Coef::K3(0),
+            Coef::Fc(0),
+        ];
+        let (wo, f) = without_effect(&m, &free, EffectKind::CubicStiffness, "spring");
+        assert_eq!(wo.elements[0].law.k3, None);
+        assert_eq!(wo.elements[0].law.coulomb, m.elements[0].law.coulomb);
+        assert_eq!(f, [Coef::Mass(0), Coef::K(0), Coef::C(0), Coef::Fc(0)]);
+        // An input effect: the element and every coefficient stay.
+        let (wo, f) = without_effect(&m, &free, EffectKind::InputDelay, "force");
+        assert_eq!(wo.inputs[0].law.delay_s, None);
+        assert_eq!(wo.elements[0].law.k3, Some(1e6));
+        assert_eq!(f, free);
     }
 }
 

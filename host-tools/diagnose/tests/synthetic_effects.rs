@@ -486,6 +486,35 @@ fn hidden_input_rate_limit_is_named() {
     check_gap(&d, 2.0);
 }
 
+#[test]
+fn a_rate_limit_most_of_a_sweep_reaches_is_named() {
+    // A 60 kg oscillator (resonance 3.1 Hz) under one up-sweep 0.5-30 Hz of 150 N, its
+    // drive's force rate limited to a thirteenth of the sweep's highest: the force passes
+    // as commanded only below 2.3 Hz and comes out as a shrinking triangle above, through
+    // the resonance; the limit lies below the rate of more than half of the record's
+    // samples (a valve far too small for the test).
+    let (mass, k, c) = (60.0, 2.26e4, 650.0);
+    let amplitude = 150.0;
+    let f = mil_identify::log_sine_sweep(0.5, 30.0, 40.0, FS, amplitude);
+    let rate = amplitude * std::f64::consts::TAU * 30.0 / 13.0;
+    let applied = rate_limited(&f, rate);
+    let x = plant_response(
+        oscillator_plant_of(mass, k, c, Effects::default()),
+        &applied,
+    );
+    let record = noisy_record("force", &f, &x, seed(28));
+    let model = oscillator_model_of(mass, k, c);
+    let d = run("strong rate limit (one up-sweep)", &model, &record);
+    assert_eq!(names(&d), [EffectKind::RateLimit]);
+    check_rel(
+        "rate",
+        param(&d, EffectKind::RateLimit, "rate_per_s"),
+        rate,
+        0.15,
+    );
+    check_gap(&d, 2.0);
+}
+
 /// The oscillator with Coulomb friction (2 N) and a hardening cubic spring (6e9 N/m³)
 /// driven by the noise force of `seed`, diagnosed; checks that both are named with their
 /// sizes and that the gap shrinks.
