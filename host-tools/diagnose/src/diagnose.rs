@@ -35,9 +35,9 @@
 //! 5. **Confirmation in simulation** (models restrained on their own): the
 //!    [`SELECTION_BRANCHES`] best candidates with `Δ < 0` (filled up, while the model
 //!    misses more than [`PRACTICAL_MARGIN`] of the noise beyond it on some output, with the
-//!    candidates that lower the equation error without reaching `Δ < 0`, best first: an
-//!    effect brief in time but lasting in its consequences, such as a wheel off the road
-//!    for a few samples, is weak in the equation error) are each refined by output error
+//!    candidates that lower the equation error without reaching `Δ < 0`, best first by
+//!    `Δ`: an effect brief in time but lasting in its consequences, such as a wheel off the
+//!    road for a few samples, is weak in the equation error) are each refined by output error
 //!    (Levenberg–Marquardt on the simulated outputs at the fitting blocks, the effect's and
 //!    the linear parameters free) and must pay off on the validation blocks' simulated
 //!    outputs: the same criterion against the current stage, and a practical margin — on
@@ -2094,7 +2094,8 @@ pub fn diagnose_with_progress(
             // error's blind spots (an effect brief in time but lasting in its consequences,
             // such as a wheel off the road for a few samples) are searched too: the
             // candidates it does not rank but that reduce its validation error, best first
-            // by that reduction, fill the branches up to SELECTION_BRANCHES.
+            // by the criterion (the closest to paying for their parameters), fill the
+            // branches up to SELECTION_BRANCHES.
             let room_to_pay = cur_eval.as_ref().is_some_and(|ev| {
                 ev.sse
                     .iter()
@@ -2102,7 +2103,7 @@ pub fn diagnose_with_progress(
                     .any(|(sse, noise)| *sse >= (1.0 + PRACTICAL_MARGIN) * noise)
             });
             if oe && room_to_pay && ranked.len() < SELECTION_BRANCHES {
-                unranked.sort_by(|a, b| a.1.total_cmp(&b.1));
+                unranked.sort_by(|a, b| a.0.total_cmp(&b.0));
                 let room = SELECTION_BRANCHES - ranked.len();
                 ranked.extend(unranked.into_iter().take(room));
             }
