@@ -35,9 +35,9 @@
 //! 5. **Confirmation in simulation** (models restrained on their own): the
 //!    [`SELECTION_BRANCHES`] best candidates with `Δ < 0` (filled up, while the model
 //!    misses more than [`PRACTICAL_MARGIN`] of the noise beyond it on some output, with the
-//!    candidates that do not reach `Δ < 0` but would by Akaike's criterion, `2p` in place
-//!    of `p ln(n_eff)`, best first by `Δ`: an effect brief in time but lasting in its consequences, such as a wheel off the
-//!    road for a few samples, is weak in the equation error) are each refined by output error
+//!    candidates that lower the equation error without reaching `Δ < 0`, best first: an
+//!    effect brief in time but lasting in its consequences, such as a wheel off the road
+//!    for a few samples, is weak in the equation error) are each refined by output error
 //!    (Levenberg–Marquardt on the simulated outputs at the fitting blocks, the effect's and
 //!    the linear parameters free) and must pay off on the validation blocks' simulated
 //!    outputs: the same criterion against the current stage, and a practical margin — on
@@ -55,11 +55,9 @@
 //!    against the one effect by the same test replaces it (one effect can stand in for two: a Bouc-Wen loop of
 //!    small yield deflection for dry friction and a hardening spring). A backward elimination then
 //!    removes any effect whose removal (the rest refined by output error) does not fail the
-//!    same test, or, for an effect of one parameter, whose strength (e.g. `k3`, a friction
-//!    force, a gap; see `strength`) is not distinguishable from none by a Wald test with the
-//!    criterion's penalty (`z² < ln n_eff`; one parameter of several, such as a stop's
-//!    stiffness beside its gap, has a variance inflated by their correlation and does not
-//!    test the effect: its removal does); when it drops an effect while rounds are left, the forward search
+//!    same test, or whose strength (e.g. `k3`, a friction force, a gap; see `strength`) is
+//!    not distinguishable from none by a Wald test with the criterion's penalty
+//!    (`z² < ln n_eff`); when it drops an effect while rounds are left, the forward search
 //!    goes on from the reduced model for those rounds and the elimination runs again
 //!    (once: [`STEPWISE_PASSES`]). Models that are not restrained (a free mass) are selected by the
 //!    equation-error criterion alone. No threshold depends on the record.
@@ -1444,14 +1442,6 @@ impl Evaluation {
 /// (not tuned to any record).
 pub const PARSIMONY_Z: f64 = 2.0;
 
-/// Akaike's penalty per parameter (in place of the ranking's `ln n_eff`): a candidate the
-/// equation error does not rank is refined by output error, while the model misses more than
-/// the practical margin in simulation, only when it would be ranked by Akaike's criterion.
-/// Without that gate, a strongly hardening oscillator under random force (whose free
-/// simulation is sensitive to every parameter) had a rate limit and quadratic damping that
-/// lower the equation error by 0.1 % confirmed there.
-pub const AKAIKE_PENALTY: f64 = 2.0;
-
 /// How many times the forward search goes on after the backward elimination dropped an
 /// effect (each pass then eliminates again): bounds the cost, and a search cannot cycle.
 pub const STEPWISE_PASSES: usize = 1;
@@ -2072,7 +2062,7 @@ pub fn diagnose_with_progress(
             }
             let mut ranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
             // Candidates the equation error does not rank but that fit its validation
-            // blocks better by Akaike's criterion (see AKAIKE_PENALTY).
+            // blocks better (see EXPLORE_EXCESS).
             let mut unranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
             for (cand, fit) in cands.into_iter().zip(by_candidate) {
                 let Some((fit, added)) = fit else {
@@ -2094,8 +2084,7 @@ pub fn diagnose_with_progress(
                 let beats_rival = rival.is_none_or(|(_, sse)| fit.sse_val < sse);
                 if crit.is_finite() && crit < 0.0 && beats_rival {
                     ranked.push((crit, ratio, fit, cand, added));
-                } else if n_eff * ratio.ln() + AKAIKE_PENALTY * (added as f64) < 0.0 && beats_rival
-                {
+                } else if crit.is_finite() && ratio < 1.0 && beats_rival {
                     unranked.push((crit, ratio, fit, cand, added));
                 }
             }
@@ -2104,9 +2093,8 @@ pub fn diagnose_with_progress(
             // still pay off ([`PRACTICAL_MARGIN`] of the noise on some output), the equation
             // error's blind spots (an effect brief in time but lasting in its consequences,
             // such as a wheel off the road for a few samples) are searched too: the
-            // candidates it does not rank but that Akaike's criterion would, best first by
-            // the criterion (the closest to paying for their parameters), fill the branches
-            // up to SELECTION_BRANCHES.
+            // candidates it does not rank but that reduce its validation error, best first
+            // by that reduction, fill the branches up to SELECTION_BRANCHES.
             let room_to_pay = cur_eval.as_ref().is_some_and(|ev| {
                 ev.sse
                     .iter()
@@ -2114,7 +2102,7 @@ pub fn diagnose_with_progress(
                     .any(|(sse, noise)| *sse >= (1.0 + PRACTICAL_MARGIN) * noise)
             });
             if oe && room_to_pay && ranked.len() < SELECTION_BRANCHES {
-                unranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+                unranked.sort_by(|a, b| a.1.total_cmp(&b.1));
                 let room = SELECTION_BRANCHES - ranked.len();
                 ranked.extend(unranked.into_iter().take(room));
             }
@@ -2377,12 +2365,9 @@ pub fn diagnose_with_progress(
         // Backward elimination in simulation: each named effect is removed from the final model
         // in turn and the rest refined by output error from the final parameters; an effect is
         // dropped when the model without it, equally refined, is as good by the same test (a
-        // later effect may explain what an earlier one stood in for), or, for an effect of
-        // one parameter, when its strength (e.g. `k3`, a friction force, a gap; see
-        // `strength`) is not distinguishable from none by a Wald test with the criterion's
-        // penalty (`z² < ln n_eff`). One parameter of an effect of several (a stop's
-        // stiffness beside its gap, a loop's k_h beside its shape) has a marginal variance
-        // inflated by their correlation: the removal tests that effect.
+        // later effect may explain what an earlier one stood in for), or when its strength (e.g.
+        // `k3`, a friction force, a gap; see `strength`) is not distinguishable from none by a
+        // Wald test with the criterion's penalty (`z² < ln n_eff`).
         if oe && named.len() > 1 {
             log(0.9, "backward elimination by simulation");
             let mut free_now = current.free.clone();
@@ -2422,8 +2407,7 @@ pub fn diagnose_with_progress(
                     let v = par.get(&updated);
                     (var.is_finite() && var > 0.0).then(|| v * v / var)
                 });
-                let weak =
-                    added_of.get(i) == Some(&1) && wald.is_some_and(|z2| z2 < n_eff_with.ln());
+                let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
                 let refined_without = match speculative.get_mut(i).and_then(Option::take) {
                     Some(r) if !dropped_any => r,
                     _ => without(&updated, &free_now, what, &target),

@@ -475,15 +475,20 @@ fn hidden_input_rate_limit_is_named() {
     let applied = rate_limited(&f, rate);
     let record = force_record(Effects::default(), &applied, &f, seed(17));
     let d = run("rate limit (noise)", &oscillator_model(), &record);
-    assert_eq!(names(&d), [EffectKind::RateLimit]);
-    // Rate within 15 %.
+    check_rate_limit_alone(&d, rate);
+}
+
+/// Checks that a rate limit alone is named, its rate within 15 % of `rate`, and that the
+/// gap shrinks at least 2x.
+fn check_rate_limit_alone(d: &Diagnosis, rate: f64) {
+    assert_eq!(names(d), [EffectKind::RateLimit]);
     check_rel(
         "rate",
-        param(&d, EffectKind::RateLimit, "rate_per_s"),
+        param(d, EffectKind::RateLimit, "rate_per_s"),
         rate,
         0.15,
     );
-    check_gap(&d, 2.0);
+    check_gap(d, 2.0);
 }
 
 #[test]
@@ -505,14 +510,7 @@ fn a_rate_limit_most_of_a_sweep_reaches_is_named() {
     let record = noisy_record("force", &f, &x, seed(28));
     let model = oscillator_model_of(mass, k, c);
     let d = run("strong rate limit (one up-sweep)", &model, &record);
-    assert_eq!(names(&d), [EffectKind::RateLimit]);
-    check_rel(
-        "rate",
-        param(&d, EffectKind::RateLimit, "rate_per_s"),
-        rate,
-        0.15,
-    );
-    check_gap(&d, 2.0);
+    check_rate_limit_alone(&d, rate);
 }
 
 /// The oscillator with Coulomb friction (2 N) and a hardening cubic spring (6e9 N/m³)
