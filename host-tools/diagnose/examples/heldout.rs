@@ -103,6 +103,21 @@ const UNTOUCHED5_SEED: u64 = 6_000_000;
 /// The pair matrix (every element effect with every partner, once).
 const PAIRS_SEED: u64 = 7_000_000;
 
+/// The `--set` names and their seeds.
+const SETS: [(&str, u64); 6] = [
+    ("dev", DEV_SEED),
+    ("untouched", UNTOUCHED_SEED),
+    ("untouched2", UNTOUCHED2_SEED),
+    ("untouched3", UNTOUCHED3_SEED),
+    ("untouched4", UNTOUCHED4_SEED),
+    ("untouched5", UNTOUCHED5_SEED),
+];
+
+/// The base seed of the set called `name`.
+fn set_seed(name: &str) -> Option<u64> {
+    SETS.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
+}
+
 /// Relative tolerance of a recalibrated linear parameter.
 const RECAL_TOLERANCE: f64 = 0.05;
 
@@ -150,20 +165,9 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
             other => return Err(format!("unknown argument {other:?}").into()),
         }
     }
-    let sets = [
-        "dev",
-        "untouched",
-        "untouched2",
-        "untouched3",
-        "untouched4",
-        "untouched5",
-    ];
-    if !sets.contains(&a.set.as_str()) {
-        return Err(format!(
-            "--set {}: dev, untouched, untouched2, untouched3, untouched4 or untouched5",
-            a.set
-        )
-        .into());
+    if set_seed(&a.set).is_none() {
+        let names: Vec<&str> = SETS.iter().map(|(n, _)| *n).collect();
+        return Err(format!("--set {}: one of {}", a.set, names.join(", ")).into());
     }
     Ok(a)
 }
@@ -544,14 +548,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     } else if args.pairs {
         ("pairs".into(), generator::pairs(PAIRS_SEED))
     } else {
-        let base = match args.set.as_str() {
-            "dev" => DEV_SEED,
-            "untouched" => UNTOUCHED_SEED,
-            "untouched2" => UNTOUCHED2_SEED,
-            "untouched3" => UNTOUCHED3_SEED,
-            "untouched4" => UNTOUCHED4_SEED,
-            _ => UNTOUCHED5_SEED,
-        };
+        let base = set_seed(&args.set).ok_or("unknown set")?;
         let n = args.records;
         (
             args.set.clone(),

@@ -2062,7 +2062,7 @@ pub fn diagnose_with_progress(
             }
             let mut ranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
             // Candidates the equation error does not rank but that fit its validation
-            // blocks better (see EXPLORE_EXCESS).
+            // blocks better (see `room_to_pay` below).
             let mut unranked: Vec<(f64, f64, Fit, Candidate, usize)> = Vec::new();
             for (cand, fit) in cands.into_iter().zip(by_candidate) {
                 let Some((fit, added)) = fit else {
@@ -2395,7 +2395,6 @@ pub fn diagnose_with_progress(
             .into_iter()
             .map(Some)
             .collect();
-            let mut dropped_any = false;
             for i in (0..named.len()).rev() {
                 let Some(with) = cur_eval.clone() else { break };
                 let what = named[i].named.effect;
@@ -2409,7 +2408,7 @@ pub fn diagnose_with_progress(
                 });
                 let weak = wald.is_some_and(|z2| z2 < n_eff_with.ln());
                 let refined_without = match speculative.get_mut(i).and_then(Option::take) {
-                    Some(r) if !dropped_any => r,
+                    Some(r) if dropped.is_empty() => r,
                     _ => without(&updated, &free_now, what, &target),
                 };
                 let Some((m2, pc, ev_wo, free_wo)) = refined_without else {
@@ -2432,7 +2431,6 @@ pub fn diagnose_with_progress(
                     free_now = free_wo;
                     (cov_params, cov) = pc;
                     cur_eval = Some(ev_wo);
-                    dropped_any = true;
                     dropped.push((what, target));
                 }
             }
@@ -2675,8 +2673,6 @@ pub fn diagnose_with_progress(
     })
 }
 
-/// `m` with no mass, bias or element force and its inputs as measured (no input effect):
-/// its equation-error residual is the measured generalised forces.
 /// `m` without the effect `what` on `target` (an element or an input), and `free` without
 /// that effect's coefficients.
 fn without_effect(m: &Model, free: &[Coef], what: EffectKind, target: &str) -> (Model, Vec<Coef>) {
@@ -2698,6 +2694,8 @@ fn without_effect(m: &Model, free: &[Coef], what: EffectKind, target: &str) -> (
     (m_wo, free_wo)
 }
 
+/// `m` with no mass, bias or element force and its inputs as measured (no input effect):
+/// its equation-error residual is the measured generalised forces.
 fn strip(m: &Model) -> Model {
     let mut s = m.clone();
     for e in &mut s.elements {
