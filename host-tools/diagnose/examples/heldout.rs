@@ -178,6 +178,9 @@ struct Found {
     gap_before: f64,
     gap_after: f64,
     recalibrated: BTreeMap<String, f64>,
+    /// Why the model reader refuses the updated model (its `updated.toml`), if it does: a
+    /// negative parameter anywhere.
+    unreadable: Option<String>,
     notes: Vec<String>,
     /// Every candidate's equation-error score, best first per round (`--verbose`).
     candidates: Vec<String>,
@@ -218,6 +221,9 @@ fn found_of(d: &Diagnosis) -> Found {
         gap_before: d.gap_before.nrmse,
         gap_after: d.gap_after.nrmse,
         recalibrated: d.recalibrated.clone(),
+        unreadable: Model::from_toml(&d.updated.to_toml())
+            .err()
+            .map(|e| e.to_string()),
         notes: d.notes.clone(),
         candidates: {
             let mut c = d.candidates.clone();
@@ -350,6 +356,9 @@ fn print_line(o: &Outcome, verbose: bool) {
                 o.perfect_io,
                 o.diag_s
             );
+            if let Some(why) = &f.unreadable {
+                println!("      UNREADABLE updated model: {why}");
+            }
             if verbose {
                 for n in &f.notes {
                     println!("      note: {n}");
@@ -435,11 +444,13 @@ fn summary(outcomes: &[Outcome], wall_s: f64) {
     let mut recal_records = Tally::default();
     let mut refusals: BTreeMap<String, usize> = BTreeMap::new();
     let mut refused = 0;
+    let mut unreadable = Tally::default();
     for o in &diagnosed {
         let sc = &o.sc;
         let exact = match &o.result {
             Some(Ok(f)) => {
                 let s = score(sc, f);
+                unreadable.add(f.unreadable.is_some());
                 placed.ok += s.placed.0;
                 placed.n += s.placed.1;
                 if sc.effects.is_empty() {
@@ -528,6 +539,7 @@ fn summary(outcomes: &[Outcome], wall_s: f64) {
         RECAL_TOLERANCE * 100.0
     );
     println!("refused: {refused}/{}", diagnosed.len());
+    println!("updated model refused by the model reader (a negative parameter): {unreadable}   [0 expected]");
     for (msg, n) in &refusals {
         println!("  {n:>3} x {msg}");
     }

@@ -250,6 +250,49 @@ impl ElementLaw {
         out
     }
 
+    /// Whether the law is passive, as a spring-damper element is: no negative stiffness
+    /// (linear, hysteretic or a stop's), damping, friction force or quadratic damping, and
+    /// both of an asymmetric damper's dampings >= 0. A negative one would be an energy
+    /// source in the element; a softening cubic (negative `k3`) is allowed, it is checked
+    /// where it would make the spring pull (the model's travel is not known here).
+    pub fn passive(&self) -> bool {
+        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        nonneg(self.k)
+            && nonneg(self.c)
+            && nonneg(self.k_h)
+            && self.c2.is_none_or(nonneg)
+            && self.coulomb.is_none_or(|(fc, _)| nonneg(fc))
+            && self.bump.is_none_or(|(_, kb)| nonneg(kb))
+            && self.rebound.is_none_or(|(_, kr)| nonneg(kr))
+            && self
+                .c_abs
+                .is_none_or(|ca| nonneg(self.c + ca) && nonneg(self.c - ca))
+    }
+
+    /// The nearest passive law in each of the effect parameters [`ElementLaw::passive`]
+    /// bounds (a stop's stiffness, a friction force, a quadratic damping at 0 when below;
+    /// an asymmetric half difference within `±c`): the projection a bounded refinement
+    /// takes its steps through. The linear `k`, `c`, `k_h` are left as they are.
+    pub fn make_passive(&mut self) {
+        let at_least_0 = |v: &mut f64| *v = v.max(0.0);
+        if let Some(c2) = self.c2.as_mut() {
+            at_least_0(c2);
+        }
+        if let Some((fc, _)) = self.coulomb.as_mut() {
+            at_least_0(fc);
+        }
+        if let Some((_, kb)) = self.bump.as_mut() {
+            at_least_0(kb);
+        }
+        if let Some((_, kr)) = self.rebound.as_mut() {
+            at_least_0(kr);
+        }
+        if let Some(ca) = self.c_abs.as_mut() {
+            let c = self.c.max(0.0);
+            *ca = ca.clamp(-c, c);
+        }
+    }
+
     /// The file's (total) stiffness `k` (N/m): `k_s + k_h` with hysteresis.
     pub fn stiffness_total(&self) -> f64 {
         if self.hysteresis.is_some() {
@@ -278,11 +321,18 @@ impl ElementLaw {
                 if self.bump.is_none() && self.rebound.is_none() {
                     return None;
                 }
-                if let Some((g, kb)) = self.bump {
+                // A side of zero stiffness (where a refinement held it at its bound) is
+                // no stop: not written.
+                let (bump, rebound) = match (self.bump, self.rebound) {
+                    (Some(b), Some(r)) if r.1 == 0.0 && b.1 != 0.0 => (Some(b), None),
+                    (Some(b), Some(r)) if b.1 == 0.0 && r.1 != 0.0 => (None, Some(r)),
+                    sides => sides,
+                };
+                if let Some((g, kb)) = bump {
                     put("gap_m", g);
                     put("stiffness_n_per_m", kb);
                 }
-                match (self.bump, self.rebound) {
+                match (bump, rebound) {
                     (Some((_, kb)), Some((g, kr))) => {
                         put("rebound_gap_m", g);
                         if kr != kb {
@@ -333,6 +383,7 @@ impl ElementLaw {
             }
             EffectKind::CoulombFriction => {
                 let fc = reader.get("force_n")?;
+                reader.check(fc >= 0.0, "force_n", fc, ">= 0")?;
                 let veps = reader.opt("smoothing_velocity_m_per_s")?.unwrap_or(1e-3);
                 reader.check(veps > 0.0, "smoothing_velocity_m_per_s", veps, "> 0")?;
                 self.coulomb = Some((fc, veps));
@@ -343,6 +394,10 @@ impl ElementLaw {
                 let gap = reader.opt("gap_m")?;
                 let rgap = reader.opt("rebound_gap_m")?;
                 let kr = reader.opt("rebound_stiffness_n_per_m")?;
+                reader.check(kb >= 0.0, "stiffness_n_per_m", kb, ">= 0")?;
+                if let Some(kr) = kr {
+                    reader.check(kr >= 0.0, "rebound_stiffness_n_per_m", kr, ">= 0")?;
+                }
                 if kr.is_some() && (gap.is_none() || rgap.is_none()) {
                     return Err(Error::Model(
                         "bump_stop: rebound_stiffness_n_per_m is for a stop on both sides (give \
@@ -370,10 +425,16 @@ impl ElementLaw {
                 reader.check(b >= 0.0, "half_gap_m", b, ">= 0")?;
                 self.backlash = Some(b);
             }
-            EffectKind::QuadraticDamping => self.c2 = Some(reader.get("damping_n_s2_per_m2")?),
+            EffectKind::QuadraticDamping => {
+                let c2 = reader.get("damping_n_s2_per_m2")?;
+                reader.check(c2 >= 0.0, "damping_n_s2_per_m2", c2, ">= 0")?;
+                self.c2 = Some(c2);
+            }
             EffectKind::AsymmetricDamping => {
                 let cb = reader.get("bump_n_s_per_m")?;
                 let cr = reader.get("rebound_n_s_per_m")?;
+                reader.check(cb >= 0.0, "bump_n_s_per_m", cb, ">= 0")?;
+                reader.check(cr >= 0.0, "rebound_n_s_per_m", cr, ">= 0")?;
                 self.c = 0.5 * (cb + cr);
                 self.c_abs = Some(0.5 * (cb - cr));
             }
@@ -883,6 +944,76 @@ mod tests {
             .apply(EffectKind::BumpStop, &one)
             .unwrap_err();
         assert!(err.to_string().contains("both sides"), "{err}");
+    }
+
+    #[test]
+    fn an_energy_source_is_refused_naming_the_field() {
+        let map = |pairs: &[(&str, f64)]| -> BTreeMap<String, f64> {
+            pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+        };
+        // Each effect with its sign-constrained parameter negative, the field it must name.
+        let cases: [(EffectKind, BTreeMap<String, f64>, &str); 6] = [
+            (
+                EffectKind::CoulombFriction,
+                map(&[("force_n", -20.0)]),
+                "force_n",
+            ),
+            (
+                EffectKind::BumpStop,
+                map(&[("gap_m", 0.01), ("stiffness_n_per_m", -1e3)]),
+                "stiffness_n_per_m",
+            ),
+            (
+                EffectKind::BumpStop,
+                map(&[
+                    ("gap_m", 0.01),
+                    ("rebound_gap_m", 0.02),
+                    ("stiffness_n_per_m", 1e5),
+                    ("rebound_stiffness_n_per_m", -3e5),
+                ]),
+                "rebound_stiffness_n_per_m",
+            ),
+            (
+                EffectKind::QuadraticDamping,
+                map(&[("damping_n_s2_per_m2", -5.0)]),
+                "damping_n_s2_per_m2",
+            ),
+            (
+                EffectKind::AsymmetricDamping,
+                map(&[("bump_n_s_per_m", -10.0), ("rebound_n_s_per_m", 120.0)]),
+                "bump_n_s_per_m",
+            ),
+            (
+                EffectKind::AsymmetricDamping,
+                map(&[("bump_n_s_per_m", 80.0), ("rebound_n_s_per_m", -1.0)]),
+                "rebound_n_s_per_m",
+            ),
+        ];
+        for (kind, params, field) in cases {
+            let mut law = ElementLaw::linear(1e4, 100.0);
+            let before = law.clone();
+            let err = law.apply(kind, &params).unwrap_err().to_string();
+            assert!(err.contains(field) && err.contains(">= 0"), "{kind}: {err}");
+            assert_eq!(law, before, "{kind}: a refused effect changes nothing");
+            // The same values set directly make the law active, not passive.
+            let mut ok = params.clone();
+            for v in ok.values_mut() {
+                *v = v.abs();
+            }
+            let mut law = ElementLaw::linear(1e4, 100.0);
+            law.apply(kind, &ok).unwrap();
+            assert!(law.passive(), "{kind}");
+        }
+        let mut pulling = ElementLaw::linear(1e4, 100.0);
+        pulling.bump = Some((0.01, -1e3));
+        assert!(!pulling.passive());
+        let mut source = ElementLaw::linear(1e4, 100.0);
+        source.c_abs = Some(150.0);
+        assert!(!source.passive());
+        // A softening cubic is not an energy source by itself.
+        let mut softening = ElementLaw::linear(1e4, 100.0);
+        softening.k3 = Some(-1e6);
+        assert!(softening.passive());
     }
 
     /// The law written out effect by effect from the module documentation, each `Option`
