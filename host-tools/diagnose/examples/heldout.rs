@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run --release -p mil-diagnose --example heldout --
-//!     [--set dev|untouched|untouched2|untouched3|untouched4|untouched5]
+//!     [--set dev|untouched|untouched2|untouched3|untouched4|untouched5|untouched6]
 //!     [--records N] [--matrix] [--pairs] [--only ID] [--write DIR] [--no-diagnose] [--verbose]
 //! ```
 //!
@@ -12,14 +12,15 @@
 //! Each record is drawn from its seed (`--set dev`: seeds 1000 + id, `--set untouched`:
 //! 900000 + id, `--set untouched2`: 2000000 + id, `--set untouched3`: 3000000 + id,
 //! `--set untouched4`: 4000000 + id, `--matrix`: 5000000 + id, `--set untouched5`:
-//! 6000000 + id, `--pairs`: 7000000 + id,
+//! 6000000 + id, `--pairs`: 7000000 + id, `--set untouched6`: 8000000 + id,
 //! disjoint for any sensible `--records`). `untouched` was run once on the method of the
 //! session that first reported it, `untouched2` once on the method that followed,
 //! `untouched3` once on the next (the closing margin, stops on both sides), `untouched4`
 //! once on the one after (the output-error windows placed by the outputs' power and warmed
 //! up over the slowest decay), `untouched5` once on the next (stepwise search, the
 //! equation error's blind spots refined while the model misses more than the practical
-//! margin). `--pairs` is a development set of pairs only: every element
+//! margin), `untouched6` once on the one after (effects kept passive, the replacement
+//! step). `--pairs` is a development set of pairs only: every element
 //! effect with every partner the random sets pair it with, per topology, the excitation and
 //! the model cycling with the index:
 //!
@@ -102,15 +103,18 @@ const MATRIX_SEED: u64 = 5_000_000;
 const UNTOUCHED5_SEED: u64 = 6_000_000;
 /// The pair matrix (every element effect with every partner, once).
 const PAIRS_SEED: u64 = 7_000_000;
+/// A sixth, for the method after the fifth was run (once).
+const UNTOUCHED6_SEED: u64 = 8_000_000;
 
 /// The `--set` names and their seeds.
-const SETS: [(&str, u64); 6] = [
+const SETS: [(&str, u64); 7] = [
     ("dev", DEV_SEED),
     ("untouched", UNTOUCHED_SEED),
     ("untouched2", UNTOUCHED2_SEED),
     ("untouched3", UNTOUCHED3_SEED),
     ("untouched4", UNTOUCHED4_SEED),
     ("untouched5", UNTOUCHED5_SEED),
+    ("untouched6", UNTOUCHED6_SEED),
 ];
 
 /// The base seed of the set called `name`.
@@ -157,7 +161,7 @@ fn parse_args() -> Result<Args, Box<dyn Error>> {
             "--verbose" => a.verbose = true,
             "-h" | "--help" => {
                 println!(
-                    "heldout [--set dev|untouched|untouched2|untouched3|untouched4|untouched5] [--records N] [--matrix] [--pairs] [--only ID] \
+                    "heldout [--set dev|untouched|untouched2|untouched3|untouched4|untouched5|untouched6] [--records N] [--matrix] [--pairs] [--only ID] \
                      [--write DIR] [--no-diagnose] [--verbose]"
                 );
                 std::process::exit(0);

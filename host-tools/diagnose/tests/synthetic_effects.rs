@@ -535,28 +535,27 @@ fn friction_and_cubic(what: &str, seed: u64) -> Diagnosis {
         seed,
     );
     let d = run(what, &oscillator_model(), &record);
-    let mut n = names(&d);
-    n.sort();
-    assert_eq!(
-        n,
-        [EffectKind::CoulombFriction, EffectKind::CubicStiffness],
-        "both effects, nothing else"
-    );
     // As the single-effect tests in `synthetic.rs`: F_c within 15 %, k3 within 10 %.
-    check_rel(
-        "F_c",
-        param(&d, EffectKind::CoulombFriction, "force_n"),
-        fc,
-        0.15,
+    check_both(
+        &d,
+        (EffectKind::CoulombFriction, "force_n", fc, 0.15),
+        (EffectKind::CubicStiffness, "stiffness_n_per_m3", k3, 0.10),
     );
-    check_rel(
-        "k3",
-        param(&d, EffectKind::CubicStiffness, "stiffness_n_per_m3"),
-        k3,
-        0.10,
-    );
-    check_gap(&d, 2.0);
     d
+}
+
+/// Checks that exactly the two effects are named, each's parameter `(effect, key, truth,
+/// relative tolerance)` within its tolerance, and that the gap shrinks at least 2x.
+fn check_both(d: &Diagnosis, a: (EffectKind, &str, f64, f64), b: (EffectKind, &str, f64, f64)) {
+    let mut n = names(d);
+    n.sort();
+    let mut want = [a.0, b.0];
+    want.sort();
+    assert_eq!(n, want, "both effects, nothing else");
+    for (kind, key, truth, rel) in [a, b] {
+        check_rel(key, param(d, kind, key), truth, rel);
+    }
+    check_gap(d, 2.0);
 }
 
 #[test]
@@ -643,9 +642,10 @@ fn hidden_lift_off_is_named() {
 /// logarithmic down-sweep 60-3 Hz of 30 N (the limit, a third of the sweep's highest
 /// rate, acts above 20 Hz, down to the resonance's neighbourhood): checks that both are
 /// named, the cubic's size within 15 % and the rate within 15 %, and that the gap
-/// shrinks. While the rate limit's lag is not modelled, a Bouc-Wen loop can explain
-/// more than the cubic spring; the replacement step gives the cubic spring its place
-/// once the rate limit is in.
+/// shrinks. The pair of the development set's pairs 2 and 81 (there with effects of 3-10x
+/// the noise, where a Bouc-Wen loop can explain more than the cubic spring while the rate
+/// limit's lag is not modelled); sized as here, the cubic spring is named first (the
+/// replacement step that undoes such a loop is exercised by `tests/development_pairs.rs`).
 #[test]
 fn a_hardening_spring_behind_a_rate_limited_drive_is_named_as_such() {
     let (k3, amplitude) = (4.0e9, 30.0);
@@ -672,24 +672,9 @@ fn a_hardening_spring_behind_a_rate_limited_drive_is_named_as_such() {
     for n in &d.notes {
         println!("  note: {n}");
     }
-    let mut n = names(&d);
-    n.sort();
-    assert_eq!(
-        n,
-        [EffectKind::CubicStiffness, EffectKind::RateLimit],
-        "both effects, nothing else"
+    check_both(
+        &d,
+        (EffectKind::CubicStiffness, "stiffness_n_per_m3", k3, 0.15),
+        (EffectKind::RateLimit, "rate_per_s", rate, 0.15),
     );
-    check_rel(
-        "k3",
-        param(&d, EffectKind::CubicStiffness, "stiffness_n_per_m3"),
-        k3,
-        0.15,
-    );
-    check_rel(
-        "rate",
-        param(&d, EffectKind::RateLimit, "rate_per_s"),
-        rate,
-        0.15,
-    );
-    check_gap(&d, 2.0);
 }
