@@ -1155,7 +1155,7 @@ fn fit_candidate(
                     // The second stop must pay for its two parameters on the validation
                     // blocks, by the criterion the ranking uses.
                     let n_eff = (one.val_rows as f64 / one.tau).max(2.0);
-                    let crit = n_eff * (two.sse_val / one.sse_val).ln() + 2.0 * n_eff.ln();
+                    let crit = criterion(n_eff, two.sse_val / one.sse_val, 2.0);
                     Some(if crit < 0.0 { (two, 4) } else { (one, added) })
                 }
                 (Some(one), None) => Some((one, added)),
@@ -1633,6 +1633,13 @@ impl<'a> Simulated<'a> {
     }
 }
 
+/// The selection criterion `Δ = n_eff ln(SSE ratio) + added ln n_eff` of a step that
+/// changes the validation SSE by `ratio` with `added` parameters more (negative: fewer),
+/// `n_eff` effectively independent validation residuals; `Δ < 0` favours the step.
+fn criterion(n_eff: f64, ratio: f64, added: f64) -> f64 {
+    n_eff * ratio.ln() + added * n_eff.ln()
+}
+
 /// Whether going from `before` to `after` with `added` parameters pays off: the
 /// criterion `Δ = n_eff ln(SSE_after / SSE_before) + added ln n_eff < 0` (n_eff from
 /// `before`'s residual) and, on at least one output, the sum of squares removed reaches
@@ -1643,7 +1650,7 @@ impl<'a> Simulated<'a> {
 fn pays_off(noise_sse: &[f64], before: &Evaluation, after: &Evaluation, added: usize) -> Verdict {
     let n_eff = before.n_eff();
     let ratio = after.total() / before.total();
-    let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
+    let crit = criterion(n_eff, ratio, added as f64);
     let (margin, closed) = gain_on_noise(noise_sse, &before.sse, &after.sse);
     Verdict {
         confirmed: crit.is_finite() && crit < 0.0 && practical(margin, closed, 1.0),
@@ -2094,7 +2101,7 @@ pub fn diagnose_with_progress(
                         }
                         Some((f, added)) => {
                             let ratio = f.sse_val / current.sse_val;
-                            let crit = n_eff * ratio.ln() + *added as f64 * n_eff.ln();
+                            let crit = criterion(n_eff, ratio, *added as f64);
                             format!("Δ = {crit:.1}, SSE x{ratio:.4}")
                         }
                     };
@@ -2125,7 +2132,7 @@ pub fn diagnose_with_progress(
                     continue;
                 }
                 let ratio = fit.sse_val / current.sse_val;
-                let crit = n_eff * ratio.ln() + added as f64 * n_eff.ln();
+                let crit = criterion(n_eff, ratio, added as f64);
                 scores.push(CandidateScore {
                     round,
                     effect: cand.kind,
@@ -2616,16 +2623,17 @@ pub fn diagnose_with_progress(
                 |_, _| {},
             );
             let n_eff = with.n_eff();
-            // (criterion, SSE ratio, index in `tries`, the refined replacement)
-            let mut best: Option<(f64, f64, usize, Refined)> = None;
-            for (j, r) in refined.into_iter().enumerate() {
-                let (Some((m2, pc, ev, free_sw)), Some(a)) = (r, tries.get(j)) else {
+            // (criterion, SSE ratio, the alternative, its refined replacement)
+            let mut best: Option<(f64, f64, &Alternative, Refined)> = None;
+            for (r, a) in refined.into_iter().zip(&tries) {
+                let Some((m2, pc, ev, free_sw)) = r else {
                     continue;
                 };
-                let (kind, p_alt) = (a.kind, &a.added);
+                let kind = a.kind;
                 let ratio = ev.total() / with.total();
-                let crit = n_eff * ratio.ln() + (*p_alt as f64 - p_named as f64) * n_eff.ln();
-                let pays = *p_alt <= p_named || sim.pays_off(&with, &ev, p_alt - p_named).confirmed;
+                let crit = criterion(n_eff, ratio, a.added as f64 - p_named as f64);
+                let pays =
+                    a.added <= p_named || sim.pays_off(&with, &ev, a.added - p_named).confirmed;
                 notes.push(format!(
                     "replacement: {kind} on {target:?} in place of {what}: validation SSE x{ratio:.3}, criterion {crit:.1}{}",
                     if crit < 0.0 && pays { "" } else { ", not made" }
@@ -2635,21 +2643,18 @@ pub fn diagnose_with_progress(
                     && pays
                     && best.as_ref().is_none_or(|b| crit < b.0)
                 {
-                    best = Some((crit, ratio, j, (m2, pc, ev, free_sw)));
+                    best = Some((crit, ratio, a, (m2, pc, ev, free_sw)));
                 }
             }
-            if let Some((crit, ratio, j, (m2, pc, ev, free_sw))) = best {
-                let Some(a) = tries.get(j) else {
-                    continue;
-                };
-                let (kind, p_alt) = (&a.kind, &a.added);
+            if let Some((crit, ratio, a, (m2, pc, ev, free_sw))) = best {
+                let kind = a.kind;
                 notes.push(format!(
                     "replacement: {kind} on {target:?} named in place of {what} (criterion {crit:.1})"
                 ));
                 if let Some(n) = named.get_mut(i) {
                     *n = NamedDetail {
                         named: NamedEffect {
-                            effect: *kind,
+                            effect: kind,
                             element: target.clone(),
                             parameters: BTreeMap::new(),
                         },
@@ -2658,8 +2663,8 @@ pub fn diagnose_with_progress(
                         sse_ratio: ratio,
                     };
                 }
-                if let Some(a) = added_of.get_mut(i) {
-                    *a = *p_alt;
+                if let Some(p) = added_of.get_mut(i) {
+                    *p = a.added;
                 }
                 updated = m2;
                 free_now = free_sw;
