@@ -11,7 +11,7 @@ controller and a host tool:
 3. malformed frames (wrong length, "not available" position, free ID in the MiL range) and a
    foreign frame: no answer, counted;
 4. commands: a NaN value (refused by the decoder, result 11), an out-of-range safe demand
-   (result 130), a valid tyre damping (result 0);
+   (result 130), a valid tyre damping without the calibration unlocked (result 147, locked);
 5. measurements stop: the watchdog's tick must trip COMM_TIMEOUT (fault bit 4) and send
    demand frames by itself that ramp to the safe demand;
 6. ClearFault, then `C`: the firmware prints its report on semihosting and exits 0.
@@ -274,9 +274,10 @@ def run(link, samples):
     link.send(command(4, 8, f32_bits(1.0e5)))
     ack = link.frame(ACK)
     check(ack is not None and ack[2] == 130, f"safe demand beyond the limits refused with code 130: {ack and ack.hex()}")
+    # A valid tyre damping without the calibration unlocked (no XCP session): refused, 147.
     link.send(command(4, 1, f32_bits(600.0)))
     ack = link.frame(ACK)
-    check(ack is not None and ack[2] == 0 and ack[3] == 1, f"tyre damping 600 N s/m accepted: {ack and ack.hex()}")
+    check(ack is not None and ack[2] == 147 and ack[3] == 1, f"tyre damping 600 N s/m refused as locked (147): {ack and ack.hex()}")
     # Drive the demand up (road +20 mm: about 6.7 kN) so the ramp to safe is visible.
     for k in range(samples + 3, samples + 3 + 40):
         link.send(measurement(0.0, 0.02, k))

@@ -26,7 +26,7 @@ use crate::config::{
     default_params, Controller, Params, Prepared, CHANNELS, DT, STATUS_PERIOD_SAMPLES,
     WATCHDOG_OFF, WATCHDOG_SAMPLES,
 };
-use crate::params::{code, status_period, watchdog_from_seconds, watchdog_limit};
+use crate::params::code;
 
 /// Fault bits: model-core's ([`model_core::fault`]) plus the firmware's own.
 pub mod fault {
@@ -417,9 +417,10 @@ impl Application {
         }
     }
 
-    /// Applies a command that needs no parameter validation; returns the CommandAck code.
-    /// `SetParam` for controller parameters goes through [`Self::swap`] instead (validated
-    /// outside any lock by the caller).
+    /// Applies an operating command (Start, Stop, ClearFault); returns the CommandAck code.
+    /// Parameter and setting writes (SetParam, SetWatchdog) change a calibration page and go
+    /// through the one calibration authority ([`crate::xcp::Target::command_frame`]); given
+    /// here they are refused ([`code::UNKNOWN_INDEX`]) and change nothing.
     pub fn command(&mut self, command: &Command) -> u8 {
         let result = match *command {
             Command::Start => {
@@ -440,36 +441,7 @@ impl Application {
                     code::WRONG_MODE
                 }
             }
-            // Off until reset (QEMU build only): the tick timer has been stopped.
-            _ if self.watchdog.is_off() && Self::sets_watchdog(command) => code::WRONG_MODE,
-            Command::SetWatchdog { seconds } => match watchdog_from_seconds(seconds) {
-                Ok(n) => {
-                    self.watchdog.limit = n;
-                    code::OK
-                }
-                Err(c) => c,
-            },
-            Command::SetParam { index, value } => match crate::params::target(index) {
-                Some(crate::params::Target::StatusPeriod) => match status_period(value) {
-                    Ok(k) => {
-                        self.status_period = k;
-                        code::OK
-                    }
-                    Err(c) => c,
-                },
-                Some(crate::params::Target::Watchdog) => match watchdog_limit(value) {
-                    Ok(n) => {
-                        self.watchdog.limit = n;
-                        code::OK
-                    }
-                    Err(c) => c,
-                },
-                Some(crate::params::Target::Controller) => {
-                    // Validated by the caller; reaching here means a caller bug: refuse.
-                    code::UNKNOWN_INDEX
-                }
-                None => code::UNKNOWN_INDEX,
-            },
+            Command::SetParam { .. } | Command::SetWatchdog { .. } => code::UNKNOWN_INDEX,
         };
         if result != code::OK {
             self.count_rejected();
@@ -477,35 +449,31 @@ impl Application {
         result
     }
 
-    /// `command` changes the watchdog limit (SetWatchdog, or SetParam of index 101).
-    fn sets_watchdog(command: &Command) -> bool {
-        match *command {
-            Command::SetWatchdog { .. } => true,
-            Command::SetParam { index, .. } => {
-                crate::params::target(index) == Some(crate::params::Target::Watchdog)
-            }
-            _ => false,
-        }
+    /// Switches the watchdog off as the QEMU build's parameter 101 = 0 does, in any build
+    /// (tests of what the off state pins).
+    #[cfg(all(test, feature = "qemu"))]
+    pub(crate) fn switch_watchdog_off(&mut self) {
+        self.watchdog.limit = WATCHDOG_OFF;
     }
 
-    /// Swaps in a validated parameter set between two steps.
-    pub fn swap(&mut self, prepared: Prepared) -> u8 {
+    /// Installs a validated page between two steps, as one transaction: the controller
+    /// parameters and both settings change together, or (CommandAck code) nothing does.
+    /// Refused: a watchdog switched off (QEMU build, until reset) given another limit. The
+    /// caller counts a refusal where it counts ([`Counters::rejected`] counts Command frames).
+    pub fn install(&mut self, prepared: Prepared, settings: crate::calibration::Settings) -> u8 {
+        // Everything that can refuse is checked before anything changes.
+        if self.watchdog.is_off() && settings.watchdog != WATCHDOG_OFF {
+            return code::WRONG_MODE;
+        }
         match self.controller.swap_params(prepared) {
-            Ok(()) => code::OK,
-            Err(e) => {
-                self.count_rejected();
-                crate::params::error_code(&e)
+            Ok(()) => {
+                self.status_period = settings.status_period;
+                self.watchdog.limit = settings.watchdog;
+                code::OK
             }
+            Err(e) => crate::params::error_code(&e),
         }
     }
-}
-
-/// Validates a change of controller parameter `index` to `value` on a copy of `current`:
-/// the set to swap in, or the CommandAck code. Pure: runs outside any lock.
-pub fn prepare_change(current: &Params, index: u16, value: f32) -> Result<Prepared, u8> {
-    let mut next = *current;
-    crate::params::write(&mut next, index, value)?;
-    Prepared::new(&next, DT).map_err(|e| crate::params::error_code(&e))
 }
 
 #[cfg(test)]
@@ -667,22 +635,32 @@ mod tests {
         assert_eq!(out.demand.force_n[0], SAFE_DEMAND_N);
     }
 
+    /// The application behind the calibration authority, with the calibration unlocked
+    /// (Command frames as an XCP-unlocked session sends them).
+    fn commanded(a: Application) -> crate::xcp::Target<Application> {
+        crate::calibration::mirror_application(&a);
+        crate::xcp::Target::new(a)
+    }
+
     #[test]
     fn watchdog_off_counts_nothing_and_stays_off() {
-        let mut a = app();
+        let _turn = crate::calibration::test_lock();
+        let mut t = commanded(app());
         // Only the QEMU build accepts parameter 101 = 0; the board build refuses it.
         let off = Command::SetParam {
             index: 101,
             value: 0.0,
         };
         if cfg!(feature = "qemu") {
-            assert_eq!(a.command(&off), code::OK);
+            // Safe enough without the unlock in that test build.
+            assert_eq!(t.command_frame(&off, false), code::OK);
         } else {
-            assert_eq!(a.command(&off), code::OUT_OF_RANGE);
-            assert_eq!(a.watchdog().limit, WATCHDOG_SAMPLES);
+            assert_eq!(t.command_frame(&off, true), code::OUT_OF_RANGE);
+            assert_eq!(t.app_mut().watchdog().limit, WATCHDOG_SAMPLES);
             // The rest of this test exercises the QEMU build's off state.
-            a.watchdog.limit = WATCHDOG_OFF;
+            t.app_mut().watchdog.limit = WATCHDOG_OFF;
         }
+        let a = t.app_mut();
         assert!(a.watchdog().is_off());
         assert_eq!(a.command(&Command::Start), code::OK);
         for k in 0..20 {
@@ -695,77 +673,83 @@ mod tests {
         assert!(!a.watchdog().expired() && !a.status().link_lost);
         assert_eq!(a.controller().mode(), Mode::Running);
         assert_eq!((a.counters().late, a.counters().comm_timeouts), (0, 0));
-        // Off until reset: no way back by command.
+        // Off until reset: no way back by command, even unlocked.
         let rejected = a.counters().rejected;
-        assert_eq!(
-            a.command(&Command::SetParam {
+        if cfg!(feature = "qemu") {
+            let on = Command::SetParam {
                 index: 101,
-                value: 10.0
-            }),
-            code::WRONG_MODE
-        );
-        assert_eq!(
-            a.command(&Command::SetWatchdog { seconds: 0.005 }),
-            code::WRONG_MODE
-        );
-        assert!(a.watchdog().is_off());
-        assert_eq!(a.counters().rejected, rejected + 2);
-        // Other settings still work.
-        assert_eq!(
-            a.command(&Command::SetParam {
+                value: 10.0,
+            };
+            assert_eq!(t.command_frame(&on, true), code::WRONG_MODE);
+            let on = Command::SetWatchdog { seconds: 0.005 };
+            assert_eq!(t.command_frame(&on, true), code::WRONG_MODE);
+            assert!(t.app_mut().watchdog().is_off());
+            assert_eq!(t.app_mut().counters().rejected, rejected + 2);
+            // Other settings still work.
+            let k = Command::SetParam {
                 index: 100,
-                value: 5.0
-            }),
-            code::OK
-        );
+                value: 5.0,
+            };
+            assert_eq!(t.command_frame(&k, false), code::OK);
+        }
+        crate::calibration::mirror_application(&app());
     }
 
     #[test]
     fn settings_and_parameters() {
-        let mut a = app();
+        let _turn = crate::calibration::test_lock();
+        let mut t = commanded(app());
+        let send = |t: &mut crate::xcp::Target<Application>, c: Command| t.command_frame(&c, true);
         assert_eq!(
-            a.command(&Command::SetWatchdog { seconds: 0.002 }),
+            send(&mut t, Command::SetWatchdog { seconds: 0.002 }),
             code::OK
         );
-        assert_eq!(a.watchdog().limit, 4);
+        assert_eq!(t.app_mut().watchdog().limit, 4);
         assert_eq!(
-            a.command(&Command::SetWatchdog { seconds: f32::NAN }),
+            send(&mut t, Command::SetWatchdog { seconds: f32::NAN }),
             code::NOT_FINITE
         );
-        assert_eq!(a.watchdog().limit, 4);
+        assert_eq!(t.app_mut().watchdog().limit, 4);
+        let k = Command::SetParam {
+            index: 100,
+            value: 5.0,
+        };
+        assert_eq!(send(&mut t, k), code::OK);
+        assert_eq!(t.app_mut().status_period(), 5);
+        let n = Command::SetParam {
+            index: 101,
+            value: 7.0,
+        };
+        assert_eq!(send(&mut t, n), code::OK);
+        assert_eq!(t.app_mut().watchdog().limit, 7);
+        // Controller parameters: validated as a whole page, installed.
+        let stiffness = Command::SetParam {
+            index: 0,
+            value: 3.0e5,
+        };
+        assert_eq!(send(&mut t, stiffness), code::OK);
+        assert_eq!(t.app_mut().params().model.tyre[0].stiffness, 3.0e5);
+        let before = (*t.app_mut().params(), crate::calibration::working_words());
+        let rejected = t.app_mut().counters().rejected;
+        for (index, value, want) in [
+            (1, f32::NAN, code::NOT_FINITE),
+            (8, 1.0e5, code::OUT_OF_RANGE),
+            (200, 1.0, code::UNKNOWN_INDEX),
+            (5, 20_000.0, code::INCONSISTENT),
+        ] {
+            assert_eq!(
+                send(&mut t, Command::SetParam { index, value }),
+                want,
+                "{index}"
+            );
+        }
         assert_eq!(
-            a.command(&Command::SetParam {
-                index: 100,
-                value: 5.0
-            }),
-            code::OK
+            (*t.app_mut().params(), crate::calibration::working_words()),
+            before
         );
-        assert_eq!(a.status_period(), 5);
-        assert_eq!(
-            a.command(&Command::SetParam {
-                index: 101,
-                value: 7.0
-            }),
-            code::OK
-        );
-        assert_eq!(a.watchdog().limit, 7);
-        // Controller parameters: prepared outside, swapped in.
-        let p = prepare_change(a.params(), 0, 3.0e5).unwrap();
-        assert_eq!(a.swap(p), code::OK);
-        assert_eq!(a.params().model.tyre[0].stiffness, 3.0e5);
-        let before = *a.params();
-        assert_eq!(
-            prepare_change(a.params(), 1, f32::NAN).map(|_| ()),
-            Err(code::NOT_FINITE)
-        );
-        assert_eq!(
-            prepare_change(a.params(), 8, 1.0e5).map(|_| ()),
-            Err(code::OUT_OF_RANGE)
-        );
-        assert_eq!(
-            prepare_change(a.params(), 200, 1.0).map(|_| ()),
-            Err(code::UNKNOWN_INDEX)
-        );
-        assert_eq!(*a.params(), before);
+        assert_eq!(t.app_mut().counters().rejected, rejected + 4);
+        // Parameter writes given to the application directly are refused.
+        assert_eq!(t.app_mut().command(&stiffness), code::UNKNOWN_INDEX);
+        crate::calibration::mirror_application(&app());
     }
 }

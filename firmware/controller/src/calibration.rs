@@ -6,8 +6,9 @@
 //! [`CalItem::index`] ([`crate::params`]): the 31 controller parameters (indices 0–30) as
 //! `f32`, then the status period K and the watchdog limit N (indices 100, 101) as `f32`
 //! holding integers. Two pages share the addresses:
-//! - the **working page** (XCP page 0): [`WORKING`], a RAM mirror of the running values,
-//!   written only through [`apply_write`] when a change has been validated and applied;
+//! - the **working page** (XCP page 0): [`WORKING`], in RAM, written only with a change that
+//!   [`validate_write`] accepted (by `xcp::Target`, the one calibration authority, for XCP
+//!   and Command frames alike); at start it holds the running values ([`mirror`]);
 //! - the **reference page** (XCP page 1, read-only): [`REFERENCE`], the build's defaults
 //!   ([`crate::config`]), in flash.
 //!
@@ -15,9 +16,11 @@
 //! applied to a copy of the working page; every touched slot must decode to a value within
 //! its [`CalItem`] limits (finite; integral where the item is a count or a switch), and the
 //! whole resulting controller parameter set must pass `PreparedParams::new` (filter
-//! stability, minimum below maximum, ...). Only then is it handed on (the caller swaps the
-//! prepared set in between two control steps) and mirrored into [`WORKING`]; a rejected
-//! write changes nothing and returns the CommandAck code of its reason ([`params::code`]).
+//! stability, minimum below maximum, ...). Only then is it handed on (the caller installs the
+//! prepared set between two control steps when the controller runs the working page, and
+//! stores the words into [`WORKING`]); a rejected write changes nothing and returns the
+//! CommandAck code of its reason ([`params::code`]). The controller always runs one of the
+//! two pages: the one XCP's GET_CAL_PAGE names for the ECU.
 //!
 //! # Measurement block
 //! [`MEASUREMENT`]: [`MEASUREMENTS`] 4-byte slots the control task stores once per step
@@ -364,8 +367,8 @@ const fn reference_words() -> [u32; SLOTS] {
 /// The reference page (XCP page 1): the build's defaults, read-only, in flash.
 pub static REFERENCE: [u32; SLOTS] = reference_words();
 
-/// The working page (XCP page 0): a mirror of the running values, in RAM. Written only by
-/// [`apply_write`] (after validation) and [`mirror`].
+/// The working page (XCP page 0), in RAM. Written only with a validated change
+/// ([`store_working`]) and, at start, the running values ([`mirror`]).
 // Evaluated at compile time: an index out of range fails the build, never the board.
 #[allow(clippy::indexing_slicing)]
 pub static WORKING: [AtomicU32; SLOTS] = {
@@ -427,6 +430,18 @@ pub fn decode_page(words: &[u32; SLOTS]) -> Result<(Prepared, Settings), u8> {
     Ok((prepared, settings))
 }
 
+/// Stores `words` as the working page (a validated change; see `xcp::Target`).
+pub fn store_working(words: &[u32; SLOTS]) {
+    for (w, &v) in WORKING.iter().zip(words) {
+        w.store(v, Ordering::Relaxed);
+    }
+}
+
+/// The page slot of parameter `index` ([`CalItem::index`]), or `None` for an unknown index.
+pub fn slot_of(index: u16) -> Option<usize> {
+    ITEMS.iter().position(|item| item.index == index)
+}
+
 /// The working page's words now.
 pub fn working_words() -> [u32; SLOTS] {
     core::array::from_fn(|i| WORKING.get(i).map_or(0, |w| w.load(Ordering::Relaxed)))
@@ -441,15 +456,15 @@ pub(crate) fn test_lock() -> std::sync::MutexGuard<'static, ()> {
         .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
-/// A validated change: the prepared controller parameters (to swap in between two steps)
-/// and the settings.
+/// A validated change of the working page: the page's new words, and the prepared
+/// controller parameters and settings they hold (to install between two steps).
 pub struct Accepted {
     /// The whole controller parameter set, validated.
     pub prepared: Prepared,
     /// The settings.
     pub settings: Settings,
-    /// Whether the controller parameters changed (else only settings did).
-    pub params_changed: bool,
+    /// The working page's words with the change.
+    pub words: [u32; SLOTS],
 }
 
 /// Checks one slot's value against its item: the CommandAck code of the reason if refused.
@@ -469,11 +484,15 @@ pub fn check_slot(slot: usize, value: f32) -> Result<(), u8> {
     }
 }
 
-/// Validates writing `data` at byte `offset` of the page over the running `params` and
-/// `settings` (see the module documentation). On success it returns what to apply and
-/// mirrors the new values into [`WORKING`]; the caller must then swap `prepared` in before
-/// the next control step. On refusal it returns the CommandAck code and changes nothing.
-pub fn apply_write(p: &Params, s: &Settings, offset: usize, data: &[u8]) -> Result<Accepted, u8> {
+/// Validates writing `data` at byte `offset` of the page holding `p` and `s` (see the
+/// module documentation): the page's new words and what they hold, or the CommandAck code
+/// of the refusal. Pure: changes nothing (the caller installs and stores it).
+pub fn validate_write(
+    p: &Params,
+    s: &Settings,
+    offset: usize,
+    data: &[u8],
+) -> Result<Accepted, u8> {
     let end = offset.checked_add(data.len()).ok_or(code::OUT_OF_RANGE)?;
     if end > PAGE_BYTES || data.is_empty() {
         return Err(code::OUT_OF_RANGE);
@@ -505,13 +524,11 @@ pub fn apply_write(p: &Params, s: &Settings, offset: usize, data: &[u8]) -> Resu
         }
     }
     let prepared = Prepared::new(&next, DT).map_err(|e: ParamError| params::error_code(&e))?;
-    let accepted = Accepted {
+    Ok(Accepted {
         prepared,
         settings,
-        params_changed: next != *p,
-    };
-    mirror(&next, &settings);
-    Ok(accepted)
+        words,
+    })
 }
 
 /// One measurement: what the A2L file says of it.
@@ -763,13 +780,8 @@ mod tests {
 
     use super::*;
 
-    /// The pages are statics: tests that write or compare them take turns.
-    static PAGES: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
     fn lock() -> std::sync::MutexGuard<'static, ()> {
-        PAGES
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
+        test_lock()
     }
 
     fn bytes(v: f32) -> [u8; 4] {
@@ -810,23 +822,26 @@ mod tests {
     }
 
     #[test]
-    fn a_valid_write_is_prepared_and_mirrored() {
+    fn a_valid_write_is_validated_and_stores_nothing_by_itself() {
         let _turn = lock();
         let p = default_params();
         let s = DEFAULT_SETTINGS;
-        let a = apply_write(&p, &s, 4, &bytes(800.0)).expect("accepted");
-        assert!(a.params_changed);
+        mirror(&p, &s);
+        let before = working_words();
+        let a = validate_write(&p, &s, 4, &bytes(800.0)).expect("accepted");
         assert_eq!(a.prepared.params().model.tyre[0].damping, 800.0);
+        assert_eq!(f32::from_bits(a.words[1]), 800.0);
+        assert_eq!(working_words(), before, "validation stores nothing");
+        store_working(&a.words);
         let mut out = [0u8; 4];
         read(Page::Working, 4, &mut out);
         assert_eq!(out, bytes(800.0));
         // The reference page is untouched.
         read(Page::Reference, 4, &mut out);
         assert_eq!(out, bytes(500.0));
-        mirror(&p, &s);
         // Settings.
-        let a = apply_write(&p, &s, 4 * SLOT_STATUS_PERIOD, &bytes(20.0)).expect("accepted");
-        assert!(!a.params_changed);
+        let a = validate_write(&p, &s, 4 * SLOT_STATUS_PERIOD, &bytes(20.0)).expect("accepted");
+        assert_eq!(a.prepared.params(), &p);
         assert_eq!(a.settings.status_period, 20);
         mirror(&p, &s);
     }
@@ -848,7 +863,7 @@ mod tests {
         ];
         for (offset, data, want) in cases {
             assert_eq!(
-                apply_write(&p, &s, offset, &data).err(),
+                validate_write(&p, &s, offset, &data).err(),
                 Some(want),
                 "offset {offset}"
             );
@@ -859,11 +874,14 @@ mod tests {
         block[0..4].copy_from_slice(&bytes(1.0)); // sections = 1
         block[4..8].copy_from_slice(&bytes(1.0)); // beta0
                                                   // beta1, beta2, alpha1, alpha2 = 0
-        assert_eq!(apply_write(&p, &s, 40, &block).err(), Some(code::UNSTABLE));
+        assert_eq!(
+            validate_write(&p, &s, 40, &block).err(),
+            Some(code::UNSTABLE)
+        );
         // Straddling the end, empty, and overflowing.
-        assert!(apply_write(&p, &s, PAGE_BYTES - 2, &[0; 4]).is_err());
-        assert!(apply_write(&p, &s, 0, &[]).is_err());
-        assert!(apply_write(&p, &s, usize::MAX, &[0; 2]).is_err());
+        assert!(validate_write(&p, &s, PAGE_BYTES - 2, &[0; 4]).is_err());
+        assert!(validate_write(&p, &s, 0, &[]).is_err());
+        assert!(validate_write(&p, &s, usize::MAX, &[0; 2]).is_err());
         let after: [u32; SLOTS] = core::array::from_fn(|i| WORKING[i].load(Ordering::Relaxed));
         assert_eq!(before, after);
     }
@@ -880,7 +898,7 @@ mod tests {
         for (k, v) in vals.iter().enumerate() {
             block[4 * k..4 * k + 4].copy_from_slice(&bytes(*v));
         }
-        let a = apply_write(&p, &s, 40, &block).expect("stable filter accepted");
+        let a = validate_write(&p, &s, 40, &block).expect("stable filter accepted");
         let f = a.prepared.params().filter[0];
         assert_eq!(f.sections, 1);
         assert_eq!(f.section[0].alpha1, 0.2);

@@ -54,17 +54,20 @@
 //! | `watchdog` | 2 | TIM2 update | the communication watchdog tick (below) |
 //! | `aux_rx` (QEMU only) | 2 | USART2 RXNE | the XCP port's SLCAN lines: XCP command frames go to `xcp` |
 //! | `daq` | 2 (software task) | a step sample in its 16-deep channel | samples the running XCP DAQ lists on the copy of the measurement block the receive task queued after the step, sends the DTOs |
-//! | `configure` | 1 (software task) | a command in the channel | validates and applies one command, answers with a CommandAck |
+//! | `configure` | 1 (software task) | a command in the channel | one command: Start/Stop/ClearFault to the controller, parameter writes through [`xcp::Target::command_frame`] (with the slave's ECU page and unlock state); answers with a CommandAck |
 //! | `xcp` | 1 (software task) | an XCP command frame in its 48-deep channel | one command through `mil_xcp::Slave` and [`xcp::Target`]: calibration writes validated on a copy, swapped in under the application's short lock; answers on the link the command came from |
 //! | `idle` | – | – | `wfi`; on the board it refreshes the stack high-water mark about once a second |
 //!
 //! The application state ([`application::Application`]: controller, counters, watchdog) and
 //! the transmit half of the transport are RTIC shared resources; priority 3 owns their
 //! ceiling, so the control path never waits for a lock, and the lower tasks hold them only
-//! for a step or a swap. A parameter change is validated outside any lock
-//! ([`application::prepare_change`] → `PreparedParams::new`, on a copy of the running set)
-//! and swapped in with `Controller::swap_params` under a short lock, i.e. between two steps;
-//! a rejected value changes nothing.
+//! for a step or a swap. Every parameter change, by XCP or by Command frame, goes through
+//! the one calibration authority, [`xcp::Target`]: a write of the working page validated as a
+//! whole page outside any lock (`PreparedParams::new`) and installed with
+//! [`application::Application::install`] under a short lock, i.e. between two steps, or
+//! refused with nothing changed; the controller always runs the page GET_CAL_PAGE names.
+//! Command-frame writes need the XCP session's CAL/PAG unlock unless they cannot raise the
+//! force ([`xcp::safe_without_unlock`]).
 //!
 //! ## XCP on CAN (calibration and measurement)
 //!

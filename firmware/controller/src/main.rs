@@ -35,11 +35,11 @@ pub(crate) use log;
 mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
-    use mil_firmware::application::{prepare_change, Application, Command};
+    use mil_firmware::application::{Application, Command};
     use mil_firmware::calibration::{self, meas};
     use mil_firmware::config::{XCP_QUEUE, XCP_SECRET};
     use mil_firmware::link::{self, Request, Transport, COUNTER_MODULUS};
-    use mil_firmware::params::{code, target, Target};
+    use mil_firmware::params::code;
     use mil_firmware::xcp::{
         response_frame, slave_config, AppAccess, Link, StepPlatform, StepSample, XcpRequest,
     };
@@ -670,12 +670,20 @@ mod app {
         }
     }
 
-    /// Configuration changes, one at a time, between control steps (lowest priority):
-    /// parameter sets are validated here, outside any lock, and swapped in under a short one.
-    #[task(priority = 1, shared = [app, tx])]
+    /// Command frames, one at a time, between control steps (lowest priority, like `xcp`:
+    /// the two never interleave). Operating commands go to the controller; parameter and
+    /// setting writes go through the one calibration authority
+    /// (`mil_firmware::xcp::Target::command_frame`): a write of one slot of the working
+    /// page, validated as a whole page outside any lock and installed under a short one,
+    /// refused while the controller runs the reference page, and, unless safe without it,
+    /// only while an XCP session holds the calibration unlocked (seed & key).
+    #[task(priority = 1, shared = [app, tx, xcp])]
     async fn configure(cx: configure::Context, mut receiver: Receiver<'static, Request, QUEUE>) {
         let configure::SharedResources {
-            mut app, mut tx, ..
+            mut app,
+            mut tx,
+            xcp: mut slave,
+            ..
         } = cx.shared;
         while let Ok(request) = receiver.recv().await {
             let result = match request.command {
@@ -683,27 +691,18 @@ mod app {
                     app.lock(|a| a.count_rejected());
                     decode_error
                 }
-                Ok(Command::SetParam { index, value })
-                    if target(index) == Some(Target::Controller) =>
-                {
-                    let current = app.lock(|a| *a.params());
-                    match prepare_change(&current, index, value) {
-                        Ok(prepared) => app.lock(|a| {
-                            let result = a.swap(prepared);
-                            calibration::mirror_application(a);
-                            result
-                        }),
-                        Err(c) => {
-                            app.lock(|a| a.count_rejected());
-                            c
-                        }
-                    }
+                Ok(command) => {
+                    // No await until the change is made: the XCP task (same priority) cannot
+                    // switch the page or lock the session in between.
+                    let (page, unlocked) = slave.lock(|s| {
+                        s.as_ref().map_or((mil_xcp::Page::Working, false), |s| {
+                            let cal = mil_xcp::protocol::resource::CAL_PAG;
+                            (s.ecu_page(), s.connected() && s.protection() & cal == 0)
+                        })
+                    });
+                    mil_firmware::xcp::Target::with_page(Locked(&mut app), page)
+                        .command_frame(&command, unlocked)
                 }
-                Ok(command) => app.lock(|a| {
-                    let result = a.command(&command);
-                    calibration::mirror_application(a);
-                    result
-                }),
             };
             if matches!(
                 request.command,

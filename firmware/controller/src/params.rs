@@ -63,6 +63,13 @@ pub mod code {
     pub const WRONG_MODE: u8 = FIRMWARE + 17;
     /// The command queue was full: the command was dropped, nothing changed.
     pub const BUSY: u8 = FIRMWARE + 18;
+    /// A parameter write by Command frame that needs the calibration unlocked: an XCP
+    /// session must hold CAL/PAG unlocked (seed & key) for it; nothing changed.
+    pub const LOCKED: u8 = FIRMWARE + 19;
+    /// A parameter write by Command frame while the controller runs the reference page
+    /// (read-only, the build's defaults): switch it to the working page first (XCP
+    /// SET_CAL_PAGE); nothing changed.
+    pub const REFERENCE_PAGE: u8 = FIRMWARE + 20;
 }
 
 /// Index of the status period K.

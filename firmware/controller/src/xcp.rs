@@ -1,22 +1,25 @@
-//! The board as an XCP target: `mil-xcp`'s [`Memory`] and [`Calibration`] over the
-//! calibration page and the measurement block ([`crate::calibration`]) and the running
-//! application.
+//! The board as an XCP target, and the one authority over its parameters: `mil-xcp`'s
+//! [`Memory`] and [`Calibration`] over the calibration page and the measurement block
+//! ([`crate::calibration`]) and the running application, and the Command frames' parameter
+//! writes ([`Target::command_frame`]) through the same transactions.
 //!
 //! - Reads: the working page, the reference page (the build's defaults) and the measurement
 //!   block, byte for byte as their statics hold them.
 //! - A write goes to the working page: the page's new content is validated slot by slot and
-//!   as a whole parameter set ([`calibration::apply_write`]); a refused write answers the
-//!   XCP error of its reason and changes nothing. While the controller runs on the working
-//!   page the accepted set is swapped in at once (between two control steps: the swap takes
-//!   the application's lock, which the control step holds while it runs); while it runs on
-//!   the reference page the change waits in the working page.
-//! - SET_CAL_PAGE for the ECU: the reference page swaps in the build's defaults, the working
-//!   page swaps in whatever it holds (validated again).
-//! - COPY_CAL_PAGE reference → working: the whole page at once, as one write.
+//!   as a whole (parameters and settings, [`calibration::validate_write`]); a refused write
+//!   answers the XCP error of its reason and changes nothing. While the controller runs the
+//!   working page the accepted set is installed at once ([`Application::install`]: between
+//!   two control steps, parameters, status period and watchdog together or nothing); while
+//!   it runs the reference page the change waits in the working page.
+//! - SET_CAL_PAGE for the ECU installs the page's set (validated again) or changes nothing;
+//!   COPY_CAL_PAGE reference → working is one write of the whole page.
+//! - A Command frame's SetParam or SetWatchdog is a one-slot write of the working page, the
+//!   same transaction, refused while the controller runs the reference page and, unless
+//!   [`safe_without_unlock`], while no XCP session holds CAL/PAG unlocked.
 //!
-//! Validation runs between two short locks (a copy of nothing but the page, then the swap),
-//! so the control step never waits on it; the XCP task runs at the configuration task's
-//! priority, one command at a time, so no other change comes in between.
+//! So the running set is always the page GET_CAL_PAGE names for the ECU. Validation runs
+//! outside the application's lock; the XCP and configuration tasks run at one priority, one
+//! command at a time, so no other change comes in between.
 
 use mil_frames::RawFrame;
 use mil_xcp::{Calibration, Memory, Page, Platform, Region, Rejected, SlaveConfig};
@@ -26,7 +29,7 @@ use crate::calibration::{
     self, meas, Settings, MEASUREMENTS, MEASUREMENT_BYTES, PAGE_BYTES, REFERENCE,
 };
 use crate::config::{Prepared, SAMPLE_RATE_HZ, XCP_ID, XCP_RESPONSE_ID};
-use crate::params::{code, INDEX_STATUS_PERIOD, INDEX_WATCHDOG};
+use crate::params::code;
 
 /// The control step's period (µs): XCP event channel 0's cycle and the DAQ clock's tick.
 pub const STEP_PERIOD_US: u32 = 1_000_000 / SAMPLE_RATE_HZ;
@@ -223,33 +226,94 @@ impl<A: AppAccess> Target<A> {
         &mut self.app
     }
 
-    /// Swaps `prepared` and `settings` in under one lock.
-    fn install(&mut self, prepared: Prepared, settings: Settings) -> Result<(), Rejected> {
-        let result = self.app.with(|a| {
-            let mut result = a.swap(prepared);
-            for (index, value) in [
-                (INDEX_STATUS_PERIOD, settings.status_period),
-                (INDEX_WATCHDOG, settings.watchdog),
-            ] {
-                let current = if index == INDEX_STATUS_PERIOD {
-                    a.status_period()
-                } else {
-                    a.watchdog().limit
-                };
-                if result == code::OK && current != value {
-                    result = a.command(&Command::SetParam {
-                        index,
-                        value: f32::from(value),
-                    });
-                }
-            }
-            result
-        });
-        if result == code::OK {
-            Ok(())
-        } else {
-            Err(rejection(result))
+    /// Installs `prepared` and `settings` under one lock, as one transaction
+    /// ([`Application::install`]): all of it, or (CommandAck code) nothing.
+    fn install(&mut self, prepared: Prepared, settings: Settings) -> Result<(), u8> {
+        match self.app.with(|a| a.install(prepared, settings)) {
+            code::OK => Ok(()),
+            c => Err(c),
         }
+    }
+}
+
+impl<A: AppAccess> Target<A> {
+    /// A Command frame's command, as the configuration task applies it; returns the
+    /// CommandAck code. `cal_unlocked`: an XCP session holds CAL/PAG unlocked (seed & key).
+    ///
+    /// Start, Stop and ClearFault operate the controller and touch no page. A parameter or
+    /// setting write (SetParam, SetWatchdog) is a write of that one slot of the working page,
+    /// the same transaction as an XCP DOWNLOAD, in this order:
+    /// 1. the working page with the value is validated as a whole (a bad value is named
+    ///    first, whoever sends it);
+    /// 2. authority: it needs CAL/PAG unlocked ([`code::LOCKED`]) unless it is safe without
+    ///    ([`safe_without_unlock`]);
+    /// 3. it is refused while the controller runs the reference page
+    ///    ([`code::REFERENCE_PAGE`]): the set that runs is always one of the two pages;
+    /// 4. it is installed and stored, or (a refused install) nothing changes.
+    pub fn command_frame(&mut self, command: &Command, cal_unlocked: bool) -> u8 {
+        let result = self.command_write(command, cal_unlocked);
+        if result != code::OK && !Self::operating(command) {
+            self.app.with(|a| a.count_rejected());
+        }
+        result
+    }
+
+    fn operating(command: &Command) -> bool {
+        matches!(
+            command,
+            Command::Start | Command::Stop | Command::ClearFault
+        )
+    }
+
+    fn command_write(&mut self, command: &Command, cal_unlocked: bool) -> u8 {
+        let (slot, value) = match *command {
+            Command::Start | Command::Stop | Command::ClearFault => {
+                return self.app.with(|a| a.command(command))
+            }
+            Command::SetWatchdog { seconds } => match crate::params::watchdog_from_seconds(seconds)
+            {
+                Ok(n) => (calibration::SLOT_WATCHDOG, f32::from(n)),
+                Err(c) => return c,
+            },
+            Command::SetParam { index, value } => match calibration::slot_of(index) {
+                Some(slot) => (slot, value),
+                None => return code::UNKNOWN_INDEX,
+            },
+        };
+        // The value first: a bad value is named as such, whoever sends it.
+        let change = match self.validate(4 * slot, &value.to_le_bytes()) {
+            Ok(change) => change,
+            Err(c) => return c,
+        };
+        let running = self.app.with(|a| a.watchdog().limit);
+        if !cal_unlocked && !safe_without_unlock(slot, value, running) {
+            return code::LOCKED;
+        }
+        if self.ecu_page == Page::Reference {
+            return code::REFERENCE_PAGE;
+        }
+        match self.commit(change) {
+            Ok(()) => code::OK,
+            Err(c) => c,
+        }
+    }
+}
+
+/// Whether a Command-frame write of `value` into `slot` is safe without the calibration
+/// unlocked (`watchdog`: the limit running now): the status period (reporting only), a
+/// watchdog limit no longer than the running one (a tighter watchdog trips sooner), and in
+/// the QEMU build the watchdog switched off (a test build: the instruction benchmark).
+/// Everything else changes the force and needs seed & key.
+pub fn safe_without_unlock(slot: usize, value: f32, watchdog: u16) -> bool {
+    match slot {
+        calibration::SLOT_STATUS_PERIOD => true,
+        calibration::SLOT_WATCHDOG => {
+            let off = crate::config::WATCHDOG_OFF_ALLOWED
+                && value == f32::from(crate::config::WATCHDOG_OFF);
+            let tighter = watchdog != crate::config::WATCHDOG_OFF && value <= f32::from(watchdog);
+            off || tighter
+        }
+        _ => false,
     }
 }
 
@@ -265,7 +329,7 @@ impl<A> Memory for Target<A> {
 
 impl<A: AppAccess> Calibration for Target<A> {
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), Rejected> {
-        noted(self.write_page(offset, data))
+        noted(self.write_page(offset, data).map_err(rejection))
     }
 
     fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
@@ -273,43 +337,49 @@ impl<A: AppAccess> Calibration for Target<A> {
         for (chunk, word) in bytes.chunks_exact_mut(4).zip(REFERENCE.iter()) {
             chunk.copy_from_slice(&word.to_le_bytes());
         }
-        noted(self.write_page(0, &bytes))
+        noted(self.write_page(0, &bytes).map_err(rejection))
     }
 
     fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected> {
-        noted(self.select_page(page))
+        noted(self.select_page(page).map_err(rejection))
     }
 }
 
 impl<A: AppAccess> Target<A> {
-    /// [`Calibration::write`] without the bookkeeping.
-    fn write_page(&mut self, offset: usize, data: &[u8]) -> Result<(), Rejected> {
-        // The base is the working page as it is (the running values, or the change being
-        // prepared while the controller runs on the reference page).
-        let (base, settings) =
-            calibration::decode_page(&calibration::working_words()).map_err(rejection)?;
-        let before = calibration::working_words();
-        let accepted =
-            calibration::apply_write(base.params(), &settings, offset, data).map_err(rejection)?;
+    /// Writes `data` at byte `offset` of the working page as one transaction
+    /// ([`Self::validate`], then [`Self::commit`]).
+    fn write_page(&mut self, offset: usize, data: &[u8]) -> Result<(), u8> {
+        let change = self.validate(offset, data)?;
+        self.commit(change)
+    }
+
+    /// The working page with `data` written at byte `offset`, validated as a whole page
+    /// (CommandAck code of the refusal). Changes nothing.
+    fn validate(&self, offset: usize, data: &[u8]) -> Result<calibration::Accepted, u8> {
+        let (base, settings) = calibration::decode_page(&calibration::working_words())?;
+        calibration::validate_write(base.params(), &settings, offset, data)
+    }
+
+    /// Makes a validated change: while the controller runs the working page the new set is
+    /// installed with it ([`Self::install`]), while it runs the reference page the change
+    /// waits in the working page; then the page is stored. A refused install (CommandAck
+    /// code) changes neither the page nor the running set.
+    fn commit(&mut self, change: calibration::Accepted) -> Result<(), u8> {
         if self.ecu_page == Page::Working {
-            if let Err(e) = self.install(accepted.prepared, accepted.settings) {
-                // Not applied: the working page goes back to what runs.
-                for (w, v) in calibration::WORKING.iter().zip(before) {
-                    w.store(v, core::sync::atomic::Ordering::Relaxed);
-                }
-                return Err(e);
-            }
+            self.install(change.prepared, change.settings)?;
         }
+        calibration::store_working(&change.words);
         Ok(())
     }
 
-    /// [`Calibration::select_ecu_page`] without the bookkeeping.
-    fn select_page(&mut self, page: Page) -> Result<(), Rejected> {
+    /// Switches the controller to `page` as one transaction: that page's set is validated
+    /// and installed, or (CommandAck code) nothing changes and the ECU page stays.
+    fn select_page(&mut self, page: Page) -> Result<(), u8> {
         let words = match page {
             Page::Working => calibration::working_words(),
             Page::Reference => REFERENCE,
         };
-        let (prepared, settings) = calibration::decode_page(&words).map_err(rejection)?;
+        let (prepared, settings) = calibration::decode_page(&words)?;
         self.install(prepared, settings)?;
         self.ecu_page = page;
         Ok(())
@@ -321,6 +391,7 @@ mod tests {
     use super::*;
     use crate::calibration::{test_lock, MEASUREMENT_BYTES, PAGE_BYTES};
     use crate::config::{Prepared, TYRE, XCP_RESPONSE_ID};
+    use crate::params::INDEX_STATUS_PERIOD;
     use mil_xcp::mock::{MockPlatform, TEST_SECRET};
     use mil_xcp::{compute_key, Region, Responses, Slave, SlaveConfig};
     use std::vec;
@@ -463,6 +534,174 @@ mod tests {
         assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
     }
 
+    impl Session {
+        /// Whether the slave holds CAL/PAG unlocked.
+        fn cal_unlocked(&self) -> bool {
+            self.slave.connected()
+                && self.slave.protection() & mil_xcp::protocol::resource::CAL_PAG == 0
+        }
+
+        /// A Command frame's command, as the configuration task applies it.
+        fn command(&mut self, c: Command) -> u8 {
+            let unlocked = self.cal_unlocked();
+            self.target.command_frame(&c, unlocked)
+        }
+
+        /// The running set, settings included.
+        fn running(&self) -> (crate::config::Params, Settings) {
+            let a = &self.target.app;
+            let settings = Settings {
+                status_period: a.status_period(),
+                watchdog: a.watchdog().limit,
+            };
+            (*a.params(), settings)
+        }
+
+        /// The page GET_CAL_PAGE names for the ECU, as XCP reads it.
+        fn ecu_page_as_read(&mut self) -> [u32; calibration::SLOTS] {
+            let r = self.send(&[0xEA, 0x01, 0x00]);
+            assert_eq!(r[0], 0xFF, "GET_CAL_PAGE {r:02X?}");
+            match r[3] {
+                0 => calibration::working_words(),
+                _ => REFERENCE,
+            }
+        }
+
+        /// The invariant: the running set is what the page GET_CAL_PAGE names decodes to.
+        fn assert_runs_the_named_page(&mut self) {
+            let words = self.ecu_page_as_read();
+            let (prepared, settings) = calibration::decode_page(&words).expect("valid page");
+            assert_eq!(self.running(), (*prepared.params(), settings));
+        }
+
+        /// Back to the defaults on both pages for the other tests.
+        fn restore(&mut self) {
+            let app = Application::new(256).expect("app");
+            calibration::mirror_application(&app);
+        }
+    }
+
+    /// Issue 19, point 2: with the ECU on the reference page, a Command frame (even a
+    /// refused one) must not overwrite the working page with the running set.
+    #[test]
+    fn a_command_frame_leaves_the_prepared_working_page_alone() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.connect_and_unlock();
+        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01]), [0xFF]);
+        assert_eq!(s.command(Command::ClearFault), code::WRONG_MODE);
+        assert_eq!(s.command(Command::Start), code::OK);
+        assert_eq!(s.command(Command::Stop), code::OK);
+        assert_eq!(f32::from_bits(calibration::working_words()[0]), 3.0e5);
+        s.assert_runs_the_named_page();
+        // Back on the working page, the prepared value runs.
+        assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x00]), [0xFF]);
+        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        s.assert_runs_the_named_page();
+        s.restore();
+    }
+
+    /// Issue 19, point 3: a Command-frame parameter write while the ECU runs the reference
+    /// page must not run a set that is on neither page: it is refused and changes nothing.
+    #[test]
+    fn a_command_parameter_write_on_the_reference_page_is_refused() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.connect_and_unlock();
+        assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01]), [0xFF]);
+        let before = (s.running(), calibration::working_words());
+        let write = Command::SetParam {
+            index: 1,
+            value: 900.0,
+        };
+        assert_eq!(s.command(write), code::REFERENCE_PAGE);
+        let status = Command::SetParam {
+            index: INDEX_STATUS_PERIOD,
+            value: 20.0,
+        };
+        assert_eq!(s.command(status), code::REFERENCE_PAGE);
+        assert_eq!((s.running(), calibration::working_words()), before);
+        s.assert_runs_the_named_page();
+        // On the working page the same write is one transaction on that page.
+        assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x00]), [0xFF]);
+        assert_eq!(s.command(write), code::OK);
+        assert_eq!(f32::from_bits(calibration::working_words()[1]), 900.0);
+        s.assert_runs_the_named_page();
+        s.restore();
+    }
+
+    /// Issue 19, point 4: a refused page switch or page copy changes nothing (the QEMU
+    /// build's watchdog switched off cannot be switched back on by a page; only that build
+    /// has the off state, so CI also runs these tests with `--features qemu`).
+    #[cfg(feature = "qemu")]
+    #[test]
+    fn a_refused_page_switch_or_copy_changes_nothing() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        s.target.app.switch_watchdog_off();
+        calibration::mirror_application(&s.target.app);
+        s.connect_and_unlock();
+        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        let before = (s.running(), calibration::working_words());
+        // SET_CAL_PAGE, ECU → reference (its watchdog slot says N): refused.
+        assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01])[0], 0xFE);
+        assert_eq!(s.send(&[0xEA, 0x01, 0x00])[3], 0, "GET_CAL_PAGE");
+        assert_eq!((s.running(), calibration::working_words()), before);
+        s.assert_runs_the_named_page();
+        // COPY_CAL_PAGE reference → working: refused alike.
+        assert_eq!(s.send(&[0xE4, 0, 1, 0, 0])[0], 0xFE);
+        assert_eq!((s.running(), calibration::working_words()), before);
+        s.assert_runs_the_named_page();
+        s.restore();
+    }
+
+    /// Issue 19, point 5: with XCP locked, a Command frame does not change what seed & key
+    /// protects; the changes that are safe without it still go through.
+    #[test]
+    fn seed_and_key_protects_command_frame_writes_too() {
+        let _turn = test_lock();
+        let mut s = Session::new();
+        let before = s.running();
+        let stiffness = Command::SetParam {
+            index: 0,
+            value: 3.0e5,
+        };
+        // Not connected, then connected but locked.
+        assert_eq!(s.command(stiffness), code::LOCKED);
+        assert_eq!(s.send(&[0xFF, 0x00])[0], 0xFF);
+        assert_eq!(s.command(stiffness), code::LOCKED);
+        // A longer watchdog is not safe either; a shorter one and the status period are.
+        let longer = Command::SetWatchdog {
+            seconds: 2.0 * f32::from(crate::config::WATCHDOG_SAMPLES) / 2000.0,
+        };
+        assert_eq!(s.command(longer), code::LOCKED);
+        assert_eq!(s.running(), before);
+        assert_eq!(s.command(Command::SetWatchdog { seconds: 0.002 }), code::OK);
+        assert_eq!(s.target.app.watchdog().limit, 4);
+        let status = Command::SetParam {
+            index: INDEX_STATUS_PERIOD,
+            value: 20.0,
+        };
+        assert_eq!(s.command(status), code::OK);
+        s.assert_runs_the_named_page();
+        // Unlocked: the write is made, on the working page.
+        s.connect_and_unlock();
+        assert_eq!(s.command(stiffness), code::OK);
+        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        s.assert_runs_the_named_page();
+        // A disconnect locks it again.
+        assert_eq!(s.send(&[0xFE]), [0xFF]);
+        assert_eq!(
+            s.command(Command::SetParam {
+                index: 0,
+                value: 2.0e5
+            }),
+            code::LOCKED
+        );
+        s.restore();
+    }
+
     #[test]
     fn daq_reads_the_step_copy_and_packets_become_response_frames() {
         let _turn = test_lock();
@@ -589,6 +828,111 @@ mod tests {
             }),
             proptest::collection::vec(any::<u8>(), 0..9),
         ]
+    }
+
+    /// One step of a mixed session: an XCP command, a Command frame, or the XCP session
+    /// ending and starting again locked or unlocked.
+    #[derive(Clone, Debug)]
+    enum Step {
+        Xcp(Vec<u8>),
+        Frame(Command),
+        Reconnect { unlock: bool },
+    }
+
+    fn step() -> impl proptest::strategy::Strategy<Value = Step> {
+        use proptest::prelude::*;
+        let index = prop_oneof![0u16..31, Just(100u16), Just(101), any::<u16>()];
+        let value = prop_oneof![
+            any::<f32>(),
+            0.0f32..1.0e6,
+            -2.0e4f32..2.0e4,
+            0.0f32..20.0,
+            Just(f32::NAN),
+            Just(0.0),
+        ];
+        prop_oneof![
+            4 => command().prop_map(Step::Xcp),
+            // Page switches and copies, often.
+            2 => (0u8..=0x83, 0u8..2).prop_map(|(mode, page)| Step::Xcp(vec![0xEB, mode, 0, page])),
+            1 => Just(Step::Xcp(vec![0xE4, 0, 1, 0, 0])),
+            4 => (index, value).prop_map(|(index, value)| Step::Frame(Command::SetParam { index, value })),
+            1 => prop_oneof![-1.0f32..6.0, Just(f32::NAN)]
+                .prop_map(|seconds| Step::Frame(Command::SetWatchdog { seconds })),
+            1 => prop_oneof![Just(Command::Start), Just(Command::Stop), Just(Command::ClearFault)]
+                .prop_map(Step::Frame),
+            1 => any::<bool>().prop_map(|unlock| Step::Reconnect { unlock }),
+        ]
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 300, ..Default::default() })]
+
+        /// Command frames interleaved with XCP page operations and sessions that lock and
+        /// unlock: after every step the running set (parameters and settings) is what the
+        /// page GET_CAL_PAGE names decodes to, and a Command-frame write that needs the
+        /// unlock changes nothing while the session is locked.
+        #[test]
+        fn command_frames_and_xcp_pages_keep_one_source_of_truth(
+            steps in proptest::collection::vec(step(), 1..50)
+        ) {
+            let _turn = test_lock();
+            let mut s = Session::new();
+            s.connect_and_unlock();
+            for st in &steps {
+                let before = (s.running(), calibration::working_words());
+                match st {
+                    Step::Xcp(c) => {
+                        let parts: Vec<&[u8]> = if c.first() == Some(&0xF6) && c.len() > 8 {
+                            vec![&c[..8], &c[8..]]
+                        } else {
+                            vec![&c[..]]
+                        };
+                        for p in parts {
+                            s.slave.handle(p, &mut s.target, &mut s.platform, &mut s.out);
+                        }
+                    }
+                    Step::Frame(c) => {
+                        let locked = !s.cal_unlocked();
+                        let result = s.command(*c);
+                        let slot = match *c {
+                            Command::SetParam { index, .. } => calibration::slot_of(index),
+                            Command::SetWatchdog { .. } => Some(calibration::SLOT_WATCHDOG),
+                            _ => None,
+                        };
+                        let needs_unlock = match (*c, slot) {
+                            (Command::SetParam { value, .. }, Some(slot)) => {
+                                !safe_without_unlock(slot, value, before.0 .1.watchdog)
+                            }
+                            _ => false,
+                        };
+                        if locked && needs_unlock {
+                            proptest::prop_assert_ne!(result, code::OK);
+                            proptest::prop_assert_eq!(&(s.running(), calibration::working_words()), &before);
+                        }
+                        if result != code::OK && slot.is_some() {
+                            proptest::prop_assert_eq!(&(s.running(), calibration::working_words()), &before);
+                        }
+                    }
+                    Step::Reconnect { unlock } => {
+                        s.send(&[0xFE]);
+                        if *unlock {
+                            s.connect_and_unlock();
+                        } else {
+                            proptest::prop_assert_eq!(s.send(&[0xFF, 0x00])[0], 0xFF);
+                        }
+                    }
+                }
+                if !s.slave.connected() {
+                    s.connect_and_unlock();
+                }
+                proptest::prop_assert_eq!(s.slave.ecu_page(), s.target.ecu_page());
+                let words = s.ecu_page_as_read();
+                let (prepared, settings) = calibration::decode_page(&words).expect("valid page");
+                proptest::prop_assert_eq!(s.running(), (*prepared.params(), settings));
+            }
+            s.send(&[0xFE]);
+            s.restore();
+        }
     }
 
     proptest::proptest! {
