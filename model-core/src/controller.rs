@@ -12,7 +12,27 @@
 //!   non-finite model or filter value. The demand ramps to the safe demand, never holds a
 //!   stale or NaN value. Only [`Controller::clear_fault`] leaves it (to `Idle`).
 //!
-//! The demand is always finite and inside `[min, max]` of its channel's limits.
+//! The demand is always finite and inside `[min, max]` of its channel's limits (after a
+//! swap that narrowed them, inside limits that close in on the new ones at the rate limit).
+//!
+//! # Bumpless parameter changes
+//! A parameter set swapped in while Running ([`Controller::swap_params`]) never steps the
+//! demand:
+//! - when the model's or the filters' parameters changed, the first step after the swap runs
+//!   the model with the new set and restarts the command filters at rest at its output
+//!   ([`CascadeState::steady`]; a new filter never starts from the old one's state, which,
+//!   read with other coefficients, can mean kilonewtons), and the difference between the
+//!   demand and this new target becomes an offset added to the target, fading linearly to
+//!   zero over [`BUMPLESS_FADE_S`]: at that step the target is the demand as it was, and
+//!   afterwards it moves by at most `|offset| · dt / BUMPLESS_FADE_S` a step beyond what the
+//!   new model and filter ask for (then through the limits as always);
+//! - a narrowed amplitude limit that would cut the demand starts at the demand and closes in
+//!   at the rate limit (the safe ramp rate when not Running): the rate limit has priority
+//!   over a new amplitude limit, the demand never jumps to a limit; other limit changes
+//!   apply at once.
+//!
+//! In Idle or Fault the demand is the safe demand behind the rate limiter; a start restarts
+//! model and filter from rest, as before.
 
 use crate::biquad::{CascadeCoefficients, CascadeState};
 use crate::limits::{DemandLimits, RateLimiter};
@@ -21,6 +41,9 @@ use crate::MAX_CHANNELS;
 
 /// Allowed ramp rates to the safe demand (demand unit per second).
 pub const SAFE_RAMP_RATE: Range = Range::new(1.0e-6, 1.0e12);
+
+/// Time over which the offset of a parameter change fades out (s): see the module docs.
+pub const BUMPLESS_FADE_S: f32 = 0.1;
 
 /// The measured and exogenous signals of one sample.
 ///
@@ -222,6 +245,30 @@ pub struct Status {
     pub invalid_input: u8,
 }
 
+/// The offset that carries the demand target across a parameter change, fading to zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Fade {
+    /// Added to the new target (demand unit).
+    offset: f32,
+    /// Magnitude it loses per step.
+    per_step: f32,
+}
+
+impl Fade {
+    /// The offset of this step, then one step less of it.
+    fn next(&mut self) -> f32 {
+        let now = self.offset;
+        self.offset = if now > self.per_step {
+            now - self.per_step
+        } else if now < -self.per_step {
+            now + self.per_step
+        } else {
+            0.0
+        };
+        now
+    }
+}
+
 /// The MiL controller for `CH` channels with numerical model `M`.
 #[derive(Clone, Debug)]
 pub struct Controller<M: Model<CH>, const CH: usize> {
@@ -229,6 +276,11 @@ pub struct Controller<M: Model<CH>, const CH: usize> {
     model: M,
     filter: [CascadeState; CH],
     limiter: [RateLimiter; CH],
+    /// The amplitude limits in force: the configured ones, or narrowed ones closing in.
+    active_limits: [DemandLimits; CH],
+    fade: [Fade; CH],
+    /// A swap while Running: the next running step sets the fade offsets.
+    blend: bool,
     mode: Mode,
     fault: u8,
     needs_reset: bool,
@@ -243,10 +295,13 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             *l = RateLimiter::new(*safe);
         }
         Self {
+            active_limits: prepared.params.limits,
             prepared,
             model: M::new(),
             filter: [CascadeState::ZERO; CH],
             limiter,
+            fade: [Fade::default(); CH],
+            blend: false,
             mode: Mode::Idle,
             fault: 0,
             needs_reset: true,
@@ -268,11 +323,22 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         PreparedParams::new(params, dt).map(Self::new)
     }
 
-    /// Swaps in a validated parameter set between two steps. Model and filter states are
-    /// kept (a bounded transient follows a coefficient change); the sample period must match.
+    /// Swaps in a validated parameter set between two steps, bumpless (see the module
+    /// docs): the model state is kept; after a change of model or filter parameters the
+    /// filters restart at rest at the model's next output and the demand continues from
+    /// where it is. The sample period must
+    /// match; on error nothing changes.
     pub fn swap_params(&mut self, prepared: PreparedParams<M, CH>) -> Result<(), ParamError> {
         if prepared.dt.to_bits() != self.prepared.dt.to_bits() {
             return Err(ParamError::Inconsistent(Field::SamplePeriod));
+        }
+        let old = &self.prepared.params;
+        let new = &prepared.params;
+        if self.mode == Mode::Running
+            && !self.needs_reset
+            && (old.model != new.model || old.filter != new.filter)
+        {
+            self.blend = true;
         }
         self.prepared = prepared;
         Ok(())
@@ -379,25 +445,32 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
                 self.enter_fault(fault::INVALID_INPUT);
             }
         }
+        if !running {
+            self.blend = false;
+            self.fade = [Fade::default(); CH];
+        }
         let dt = self.prepared.dt;
         let mut demand = [0.0; CH];
         let mut amplitude_limited = 0u8;
         let mut rate_limited = 0u8;
-        for (ch, ((((out, limiter), goal), limits), ramp)) in demand
+        for (ch, (((((out, limiter), goal), configured), active), ramp)) in demand
             .iter_mut()
             .zip(self.limiter.iter_mut())
             .zip(target)
             .zip(&self.prepared.params.limits)
+            .zip(self.active_limits.iter_mut())
             .zip(&self.prepared.params.safe_ramp_rate)
             .enumerate()
         {
             let bit = 1u8.checked_shl(ch as u32).unwrap_or(0);
-            let (clamped, a) = limits.clamp(goal);
-            let rate = if running { limits.rate } else { *ramp };
-            let (limited, r) = limiter.step(clamped, rate * dt);
-            // The limiter starts inside the limits and moves towards a clamped target, so the
-            // clamp below only matters after a parameter swap narrowed the limits.
-            let (value, a2) = limits.clamp(limited);
+            let rate = if running { configured.rate } else { *ramp };
+            let max_step = rate * dt;
+            *active = active.towards(configured, limiter.output, max_step);
+            let (clamped, a) = active.clamp(goal);
+            let (limited, r) = limiter.step(clamped, max_step);
+            // The limiter starts inside the limits and moves towards a clamped target; the
+            // active limits narrow by at most one step, so this clamp only catches rounding.
+            let (value, a2) = active.clamp(limited);
             limiter.output = value;
             *out = value;
             if a || a2 {
@@ -439,9 +512,13 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             {
                 *state = CascadeState::steady(coeffs, u);
             }
+            self.fade = [Fade::default(); CH];
+            self.blend = false;
             self.needs_reset = false;
         }
         let raw = self.model.step(&prepared.model, input);
+        // The first step after a swap restarts the filters at rest at the model's output.
+        let blend = core::mem::take(&mut self.blend);
         let mut out = [0.0; CH];
         for (((o, state), coeffs), u) in out
             .iter_mut()
@@ -449,7 +526,33 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             .zip(&prepared.params.filter)
             .zip(raw)
         {
+            if blend {
+                *state = CascadeState::steady(coeffs, u);
+            }
             *o = coeffs.step(state, u);
+        }
+        if blend {
+            // The first step after a swap: the target carries on from the demand as it is,
+            // the difference fades.
+            let steps = (BUMPLESS_FADE_S / prepared.dt).max(1.0);
+            for ((fade, o), limiter) in self.fade.iter_mut().zip(&mut out).zip(&self.limiter) {
+                let offset = limiter.output - *o;
+                *fade = if offset.is_finite() {
+                    Fade {
+                        offset,
+                        per_step: offset.abs() / steps,
+                    }
+                } else {
+                    Fade::default()
+                };
+                // Exactly the demand (not `o + offset`, which rounds at large values).
+                *o = limiter.output;
+                fade.next();
+            }
+        } else {
+            for (o, fade) in out.iter_mut().zip(self.fade.iter_mut()) {
+                *o += fade.next();
+            }
         }
         let finite = out.iter().all(|v| v.is_finite())
             && self.model.is_finite()

@@ -42,6 +42,7 @@ pub use biquad::{
 };
 pub use controller::{
     fault, Controller, ControllerParams, Mode, Model, ModelInput, PreparedParams, Status,
+    BUMPLESS_FADE_S,
 };
 pub use limits::{DemandLimits, RateLimiter};
 pub use params::{ParamError, Range};

@@ -32,6 +32,30 @@ impl DemandLimits {
         Ok(())
     }
 
+    /// These limits one step closer to `target`'s amplitude limits, for a demand now at
+    /// `demand`: a bound that widens, or narrows without cutting the demand, goes there at
+    /// once; a bound that would cut the demand starts at the demand and closes in by at most
+    /// `max_step` a step (the rate limit's step). The rate is `target`'s.
+    #[inline]
+    pub fn towards(&self, target: &Self, demand: f32, max_step: f32) -> Self {
+        let max = if target.max >= self.max.min(demand) {
+            target.max
+        } else {
+            (self.max.min(demand) - max_step).max(target.max)
+        };
+        let min = if target.min <= self.min.max(demand) {
+            target.min
+        } else {
+            (self.min.max(demand) + max_step).min(target.min)
+        };
+        Self {
+            // A bound still closing in never crosses the other bound's new value.
+            min: min.min(target.max),
+            max: max.max(target.min),
+            rate: target.rate,
+        }
+    }
+
     /// Clamps `x` into `[min, max]`; the flag says whether the clamp acted. A NaN `x` maps to
     /// `min`'s side deterministically (never returned as NaN).
     #[inline]

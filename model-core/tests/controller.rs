@@ -410,3 +410,291 @@ proptest! {
         }
     }
 }
+
+/// The steady demand of a fresh controller with `p`, started and run on a constant `input`
+/// until it settles: what the model and filter ask for, computed without any swap.
+fn settled_demand(p: &TyreSet, input: &ModelInput<4>) -> [f32; 4] {
+    let mut c = Controller::<TyreModel<4>, 4>::with_params(p, DT).unwrap();
+    c.start();
+    let mut d = c.step(input);
+    for _ in 0..20_000 {
+        d = c.step(input);
+    }
+    d
+}
+
+/// The largest step of a fresh controller with `p` started at rest on a constant `input`
+/// (its filters start in their steady state) over its first 2000 steps: the f32 rounding
+/// its filters make at rest (hundredths of a newton at kilonewtons through four sections).
+fn rounding_noise(p: &TyreSet, input: &ModelInput<4>) -> [f32; 4] {
+    let mut c = Controller::<TyreModel<4>, 4>::with_params(p, DT).unwrap();
+    c.start();
+    c.step(input); // from the safe demand to the model's
+    let mut last = c.demand();
+    let mut worst = [0.0f32; 4];
+    for _ in 0..2000 {
+        let d = c.step(input);
+        for ch in 0..4 {
+            worst[ch] = worst[ch].max((d[ch] - last[ch]).abs());
+        }
+        last = d;
+    }
+    worst
+}
+
+/// A stable section with poles at radius `r` and angle `theta` and zeros elsewhere inside
+/// the circle, scaled to DC gain `gain`.
+fn section_with_gain(
+    r: f64,
+    theta: f64,
+    zr: f64,
+    ztheta: f64,
+    gain: f64,
+) -> model_core::BiquadCoefficients {
+    let unit = section_from_polar((r, theta), (zr, ztheta), 1.0);
+    section_from_polar((r, theta), (zr, ztheta), gain / f64::from(unit.dc_gain()))
+}
+
+/// Runs `c` on the constant `input` after a swap to `next`, for `steps` steps: the largest
+/// step of the demand and the last demand.
+fn after_swap(
+    c: &mut Controller<TyreModel<4>, 4>,
+    next: &TyreSet,
+    input: &ModelInput<4>,
+    steps: usize,
+) -> ([f32; 4], [f32; 4]) {
+    let mut last = c.demand();
+    c.set_params(next).unwrap();
+    let mut worst = [0.0f32; 4];
+    for _ in 0..steps {
+        let d = c.step(input);
+        for ch in 0..4 {
+            worst[ch] = worst[ch].max((d[ch] - last[ch]).abs());
+        }
+        last = d;
+    }
+    (worst, last)
+}
+
+/// Issue 19, point 1: the project's own least-squares command filter for the tyre example
+/// (`host-tools/mil/examples/sim/tyre-filter.json`, 2 kHz) uploaded while Running at the
+/// static wheel load (1.7 kN). Before: the new coefficients ran on the old filter's state and
+/// the demand moved by kilonewtons (in QEMU 1667.7 → 7667.7 N, held back only by the rate
+/// limit). Now the demand moves by at most 1/200 of the change in steady demand a step
+/// (0.1 s fade at 2 kHz) and settles where a fresh controller with that filter settles.
+#[test]
+fn a_filter_uploaded_while_running_does_not_step_the_demand() {
+    const DT_2K: f32 = 5.0e-4;
+    let section = |b: [f32; 3], a: [f32; 2]| model_core::BiquadCoefficients {
+        beta0: b[0],
+        beta1: b[1],
+        beta2: b[2],
+        alpha1: a[0],
+        alpha2: a[1],
+    };
+    let lsq = CascadeCoefficients::from_sections(&[
+        section(
+            [0.12752286, 0.2748732, 0.03965497],
+            [0.35244778, 0.084786706],
+        ),
+        section([26.709831, 2.208521, 0.18128331], [0.35244778, 0.0847867]),
+    ])
+    .unwrap();
+    let settle = |p: &TyreSet, input: &ModelInput<4>| {
+        let mut c = Controller::<TyreModel<4>, 4>::with_params(p, DT_2K).unwrap();
+        c.start();
+        let mut d = c.step(input);
+        for _ in 0..4000 {
+            d = c.step(input);
+        }
+        d
+    };
+    let input = road(0.0);
+    let mut c = Controller::<TyreModel<4>, 4>::with_params(&tyre_params(), DT_2K).unwrap();
+    c.start();
+    for _ in 0..2000 {
+        c.step(&input);
+    }
+    let before = c.demand();
+    assert!((before[0] - 1667.7).abs() < 0.1, "{before:?}");
+    let mut next = tyre_params();
+    next.filter = [lsq; 4];
+    let want = settle(&next, &input);
+    let n = (model_core::BUMPLESS_FADE_S / DT_2K).round() as usize;
+    let mut last = before;
+    c.set_params(&next).unwrap();
+    let mut worst = 0.0f32;
+    for _ in 0..n + 2000 {
+        let d = c.step(&input);
+        worst = worst.max((d[0] - last[0]).abs());
+        last = d;
+    }
+    let bound = (want[0] - before[0]).abs() / n as f32 * 1.001 + 0.01;
+    assert!(worst <= bound, "step {worst} N > {bound} N");
+    assert!(
+        (last[0] - want[0]).abs() < 0.05,
+        "{} vs {}",
+        last[0],
+        want[0]
+    );
+    println!(
+        "least-squares filter uploaded while running: worst demand step {worst:.4} N (steady demand {:.1} → {:.1} N over {n} steps)",
+        before[0], want[0]
+    );
+}
+
+/// Issue 19, point 6: narrowing the demand maximum below the running demand moves the
+/// demand down at the rate limit (the rate limit has priority), never in one jump.
+#[test]
+fn a_narrowed_limit_closes_in_at_the_rate_limit() {
+    let input = road(0.02); // 1667.7 + 250 N/mm · 20 mm = 6667.7 N
+    let mut c = Controller::<TyreModel<4>, 4>::with_params(&tyre_params(), DT).unwrap();
+    c.start();
+    for _ in 0..100 {
+        c.step(&input);
+    }
+    assert!((c.demand()[0] - 6667.7).abs() < 1.0);
+    let mut next = tyre_params();
+    next.limits[0].max = 2000.0;
+    next.limits[0].rate = 1.0e6; // 200 N a step at 5 kHz
+    let (worst, last) = after_swap(&mut c, &next, &input, 40);
+    assert!(worst[0] <= 200.0 * 1.0001, "step {}", worst[0]);
+    assert_eq!(last[0], 2000.0);
+    assert_eq!(c.status().amplitude_limited & 1, 1);
+    // The other channels: unchanged limits, no step at all.
+    assert!(worst[1] < 1e-3, "{}", worst[1]);
+}
+
+fn stable_section() -> impl Strategy<Value = model_core::BiquadCoefficients> {
+    (
+        0.0f64..0.995,
+        0.0f64..3.0,
+        0.0f64..0.999,
+        0.0f64..3.0,
+        0.3f64..3.0,
+    )
+        .prop_map(|(r, th, zr, zth, g)| section_with_gain(r, th, zr, zth, g))
+        // Command filters as the project designs them: at most about 30 dB of gain at high
+        // frequency a section (beta0 is the gain at z = ∞; the tyre example's least-squares
+        // filter has a section of beta0 = 26.7). A section of beta0 = 777 runs at rest with
+        // f32 rounding noise of newtons; that is the filter, not the swap.
+        .prop_filter("finite DC gain, |beta0| <= 30", |s| {
+            s.dc_gain().is_finite() && s.beta0.abs() <= 30.0
+        })
+}
+
+fn tyre_set() -> impl Strategy<Value = TyreSet> {
+    (
+        1.0e5f32..5.0e5,
+        0.0f32..2.0e3,
+        500.0f32..4000.0,
+        prop::collection::vec(stable_section(), 0..=4),
+    )
+        .prop_map(|(k, c_t, load, sections)| {
+            let mut p = tyre_params();
+            for t in &mut p.model.tyre {
+                t.stiffness = k;
+                t.damping = c_t;
+                t.static_load = load;
+            }
+            p.filter = [CascadeCoefficients::from_sections(&sections).unwrap(); 4];
+            p.safe_demand = [0.0; 4];
+            p
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Any pair of valid sets (stiffness, damping, static load, command filters of 0-4
+    /// sections with DC gains 0.3-3), swapped while Running at rest on a road input, limits
+    /// out of reach: the demand moves by at most |new steady demand − demand before| / fade
+    /// steps a step (plus rounding) and settles where a fresh controller with the new set
+    /// settles.
+    #[test]
+    fn a_parameter_change_at_rest_fades_to_the_new_demand(
+        first in tyre_set(),
+        second in tyre_set(),
+        hold in -0.004f32..0.004,
+    ) {
+        // Limits out of reach: the fade alone (a clamped target fades at the rate its
+        // unclamped offset sets; `a_narrowed_limit_closes_in_at_the_rate_limit` covers limits).
+        let wide = |mut p: TyreSet| { p.limits = [WIDE; 4]; p };
+        let (first, second) = (wide(first), wide(second));
+        let input = road(hold);
+        let mut c = Controller::<TyreModel<4>, 4>::with_params(&first, DT).unwrap();
+        c.start();
+        for _ in 0..20_000 {
+            c.step(&input);
+        }
+        let before = c.demand();
+        let want = settled_demand(&second, &input);
+        let noise = rounding_noise(&second, &input);
+        let n = (model_core::BUMPLESS_FADE_S / DT).round() as usize;
+        let (worst, last) = after_swap(&mut c, &second, &input, n + 20_000);
+        for ch in 0..4 {
+            // Plus the f32 rounding of the sum target + offset (a few ulp of the demand).
+            let ulps = 4.0 * f32::EPSILON * want[ch].abs().max(before[ch].abs());
+            let bound = (want[ch] - before[ch]).abs() / n as f32 * 1.001 + 2.0 * noise[ch] + ulps + 1e-4;
+            prop_assert!(worst[ch] <= bound, "channel {}: step {} N > {} N", ch, worst[ch], bound);
+            prop_assert!(
+                (last[ch] - want[ch]).abs() < 1e-2 + 5e-5 * want[ch].abs() + 5.0 * noise[ch],
+                "channel {}: {} vs {}", ch, last[ch], want[ch]
+            );
+        }
+    }
+
+    /// Any pair of valid sets swapped while Running in the middle of a random road history
+    /// (model and filters moving, rate limit out of reach): the step right after the swap
+    /// leaves the demand exactly where it was, whatever the new set asks for.
+    #[test]
+    fn the_step_after_a_parameter_change_holds_the_demand(
+        first in tyre_set(),
+        second in tyre_set(),
+        history in prop::collection::vec(-0.004f32..0.004, 1..300),
+        next in -0.004f32..0.004,
+    ) {
+        let wide = |mut p: TyreSet| { p.limits = [WIDE; 4]; p };
+        let (first, second) = (wide(first), wide(second));
+        let mut c = Controller::<TyreModel<4>, 4>::with_params(&first, DT).unwrap();
+        c.start();
+        for z in &history {
+            c.step(&road(*z));
+        }
+        let before = c.demand();
+        c.set_params(&second).unwrap();
+        let d = c.step(&road(next));
+        for ch in 0..4 {
+            prop_assert_eq!(d[ch], before[ch], "channel {}", ch);
+        }
+    }
+}
+
+/// Limits moved entirely past the demand (both bounds above it): the lower bound closes in
+/// from the demand at the rate limit, the upper one applies at once, and the demand climbs
+/// at the rate limit into the new range.
+#[test]
+fn limits_moved_past_the_demand_close_in_at_the_rate_limit() {
+    let l = DemandLimits {
+        min: -1000.0,
+        max: 12_000.0,
+        rate: 1.0,
+    };
+    let target = DemandLimits {
+        min: 20_000.0,
+        max: 30_000.0,
+        rate: 1.0,
+    };
+    let next = l.towards(&target, 5000.0, 100.0);
+    assert_eq!((next.min, next.max), (5100.0, 30_000.0));
+    let next = l.towards(&target, 29_990.0, 100.0);
+    assert_eq!((next.min, next.max), (20_000.0, 30_000.0));
+    // Narrowing that does not cut the demand applies at once.
+    let narrow = DemandLimits {
+        min: 0.0,
+        max: 3000.0,
+        rate: 1.0,
+    };
+    let next = l.towards(&narrow, 1000.0, 100.0);
+    assert_eq!((next.min, next.max), (0.0, 3000.0));
+}

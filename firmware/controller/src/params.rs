@@ -29,9 +29,10 @@
 //! until reset, for the instruction benchmark ([`crate::config::WATCHDOG_OFF`]); the board
 //! build refuses it. Filter coefficients of sections beyond the applied count
 //! are not checked until the count includes them, so a filter is loaded by writing the count
-//! 0, then the coefficients, then the count. Changing the filter while running gives a bounded
-//! transient (the section states are kept); prefer changing it in Idle (a start resets the
-//! filter to rest).
+//! 0, then the coefficients, then the count (or as one block through XCP, as `mil filter
+//! upload` does). A change while Running is bumpless (model-core's `Controller::swap_params`):
+//! the filters restart at rest at the model's output and the demand fades to the new target
+//! over `model_core::BUMPLESS_FADE_S`; narrowed limits close in at the rate limit.
 
 use model_core::{ParamError, MAX_SECTIONS};
 

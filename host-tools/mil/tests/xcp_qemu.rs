@@ -74,6 +74,21 @@ fn lockstep(mut link: SlcanTcp, demands: Demands, stop: Arc<AtomicBool>) -> Slca
     link
 }
 
+/// The demand once `n` more demands have arrived after now (a change fades in over
+/// model-core's `BUMPLESS_FADE_S`, 200 steps at 2 kHz).
+fn demand_after(demands: &Demands, n: usize) -> f32 {
+    let start = demands.lock().unwrap().len();
+    loop {
+        {
+            let d = demands.lock().unwrap();
+            if d.len() >= start + n {
+                return d[d.len() - 1].1;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 fn last_demand(demands: &Demands) -> f32 {
     let t = Instant::now();
     // A demand that arrived after now.
@@ -145,7 +160,7 @@ fn mil_param_and_daq_record_against_the_firmware() {
     let before = last_demand(&demands);
     let o = run(&["param", "set", "tyre_stiffness=300000"], TEST_SECRET);
     assert!(o.status.success(), "{}", text(&o));
-    let after = last_demand(&demands);
+    let after = demand_after(&demands, 300);
     assert!(
         (after - before - 50.0).abs() < 0.2,
         "demand {before} → {after} N: {}",
@@ -186,6 +201,31 @@ fn mil_param_and_daq_record_against_the_firmware() {
     let lost: f64 = rows.windows(2).map(|w| w[1][2] - w[0][2] - 1.0).sum();
     assert!(lost <= 2.0, "{lost} samples lost");
     assert!(rows.iter().all(|r| (r[1] as f32 - after).abs() < 0.05));
+
+    // Issue 19, point 1: the tyre example's least-squares filter uploaded while Running
+    // (before: the demand moved by up to 6 kN, 1000 N a step). At this constant input the
+    // filter (DC gain 1) asks for no change: every step between two demand frames stays
+    // within the frame's 0.1 N resolution plus the fade of what the filter's gain changes.
+    let mark = demands.lock().unwrap().len();
+    let filter = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sim/tyre-filter.json");
+    let o = run(&["filter", "upload", filter.to_str().unwrap()], TEST_SECRET);
+    assert!(o.status.success(), "{}", text(&o));
+    let settled = demand_after(&demands, 400);
+    let seen: Vec<f32> = demands.lock().unwrap()[mark..]
+        .iter()
+        .map(|d| d.1)
+        .collect();
+    let worst = seen
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0f32, f32::max);
+    println!(
+        "filter upload while running (QEMU): worst demand step {worst:.2} N over {} steps, {:.1} → {settled:.1} N",
+        seen.len(),
+        seen[0]
+    );
+    assert!(worst <= 0.25, "demand step {worst} N");
+    assert!((settled - after).abs() < 1.0, "{after} → {settled} N");
 
     stop.store(true, Ordering::Relaxed);
     let mut link = runner.join().unwrap();
