@@ -281,6 +281,9 @@ pub struct Controller<M: Model<CH>, const CH: usize> {
     fade: [Fade; CH],
     /// A swap while Running: the next running step sets the fade offsets.
     blend: bool,
+    /// A change is still settling (a fade runs or the active limits differ from the
+    /// configured ones); the steady step skips that work.
+    settling: bool,
     mode: Mode,
     fault: u8,
     needs_reset: bool,
@@ -302,6 +305,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             limiter,
             fade: [Fade::default(); CH],
             blend: false,
+            settling: false,
             mode: Mode::Idle,
             fault: 0,
             needs_reset: true,
@@ -340,6 +344,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         {
             self.blend = true;
         }
+        self.settling = true;
         self.prepared = prepared;
         Ok(())
     }
@@ -465,7 +470,9 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             let bit = 1u8.checked_shl(ch as u32).unwrap_or(0);
             let rate = if running { configured.rate } else { *ramp };
             let max_step = rate * dt;
-            *active = active.towards(configured, limiter.output, max_step);
+            if self.settling {
+                *active = active.towards(configured, limiter.output, max_step);
+            }
             let (clamped, a) = active.clamp(goal);
             let (limited, r) = limiter.step(clamped, max_step);
             // The limiter starts inside the limits and moves towards a clamped target; the
@@ -479,6 +486,11 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             if r {
                 rate_limited |= bit;
             }
+        }
+        if self.settling {
+            self.settling = self.active_limits != self.prepared.params.limits
+                || self.blend
+                || self.fade.iter().any(|f| f.offset != 0.0);
         }
         self.status = Status {
             mode: self.mode,
@@ -549,7 +561,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
                 *o = limiter.output;
                 fade.next();
             }
-        } else {
+        } else if self.settling {
             for (o, fade) in out.iter_mut().zip(self.fade.iter_mut()) {
                 *o += fade.next();
             }

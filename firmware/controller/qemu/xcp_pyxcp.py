@@ -287,15 +287,22 @@ class Lockstep(threading.Thread):
             time.sleep(0.01)
 
 
+# model-core's BUMPLESS_FADE_S (0.1 s) at the board's 2 kHz: a parameter change fades in over
+# this many control steps.
+FADE_STEPS = 200
+
+
 def check_switch(lock, i0, t0, t1, old, new, what):
-    """The demands from index `i0` on switch once from `old` to `new` at a step boundary: every
-    demand received before the command was sent (`t0`) is `old`, every demand of a
-    measurement sent after its positive response came (`t1`) is `new`, those in between are
-    one or the other (never a mixture), and there is no way back."""
+    """The demands from index `i0` on move once from `old` to `new`, bumpless: every demand
+    received before the command was sent (`t0`) is `old`; the move starts at a step boundary
+    after it, goes one way only, never by more than |new - old| / FADE_STEPS a step (plus the
+    frame's 0.1 N resolution), reaches `new` within FADE_STEPS steps of its start and stays
+    there; the demands of measurements sent after the positive response (`t1`) are already
+    on the way (the first may still hold `old`)."""
     lock.wait_steps(10)
-    # Ten more demands of measurements sent after t1.
-    deadline = time.monotonic() + 20
-    while sum(1 for r in lock.records[i0:] if r.t_send >= t1) < 10:
+    # FADE_STEPS + 20 more demands of measurements sent after t1.
+    deadline = time.monotonic() + 30
+    while sum(1 for r in lock.records[i0:] if r.t_send >= t1) < FADE_STEPS + 20:
         lock.alive()
         if time.monotonic() > deadline:
             raise Failure("lockstep too slow after the change")
@@ -306,26 +313,37 @@ def check_switch(lock, i0, t0, t1, old, new, what):
         check(not bad, f"{what}: demand stays {counts(old)} over {len(recs)} steps"
               + (f"; got {[(r.step, counts(r.raw)) for r in bad[:5]]}" if bad else ""))
         return
-    foreign = [r for r in recs if r.raw not in (old, new)]
+    sign = 1 if new > old else -1
+    # Raw frame counts are 0.1 N: allow one count of rounding on each step.
+    largest = abs(new - old) / FADE_STEPS + 1
     early = [r for r in recs if r.t_recv <= t0 and r.raw != old]
-    late = [r for r in recs if r.t_send >= t1 and r.raw != new]
-    back = [b for a, b in zip(recs, recs[1:]) if a.raw == new and b.raw == old]
-    first = next((r for r in recs if r.raw == new), None)
-    inflight = sum(1 for r in recs if r.t_send < t1 and r.t_recv > t0)
+    back = [b for a, b in zip(recs, recs[1:]) if (b.raw - a.raw) * sign < -1]
+    jumps = [(b.step, counts(b.raw - a.raw)) for a, b in zip(recs, recs[1:]) if abs(b.raw - a.raw) > largest]
+    start = next((k for k, r in enumerate(recs) if r.raw != old), None)
+    end = next((k for k, r in enumerate(recs) if r.raw == new), None)
+    after = [r for r in recs if r.t_send >= t1]
+    held = [r for r in after[1:] if r.raw == old]
+    tail = [r for r in recs[end:] if r.raw != new] if end is not None else []
     detail = (
-        f"{counts(old)} -> {counts(new)} (expected change {counts(new - old)})"
-        + (f" at step {first.step}" if first else "")
-        + f", {inflight} step(s) overlapping the command"
+        f"{counts(old)} -> {counts(new)} (change {counts(new - old)})"
+        + (f" from step {recs[start].step}" if start is not None else "")
+        + (f" over {end - start} steps" if start is not None and end is not None else "")
+        + f", largest step {counts(max((abs(b.raw - a.raw) for a, b in zip(recs, recs[1:])), default=0))}"
+        + f" (bound {counts(abs(new - old) / FADE_STEPS)})"
     )
     problems = []
-    if foreign:
-        problems.append(f"values other than old/new: {[(r.step, counts(r.raw)) for r in foreign[:5]]}")
     if early:
-        problems.append(f"new value before the command was sent: {[(r.step, counts(r.raw)) for r in early[:5]]}")
-    if late:
-        problems.append(f"old value after the positive response: {[(r.step, counts(r.raw)) for r in late[:5]]}")
+        problems.append(f"moved before the command was sent: {[(r.step, counts(r.raw)) for r in early[:5]]}")
+    if jumps:
+        problems.append(f"steps beyond the fade: {jumps[:5]}")
     if back:
-        problems.append(f"switched back at steps {[r.step for r in back[:5]]}")
+        problems.append(f"moved back at steps {[r.step for r in back[:5]]}")
+    if end is None or start is None or end - start > FADE_STEPS + 2:
+        problems.append("did not reach the new value within the fade")
+    if held:
+        problems.append(f"old value after the positive response: {[(r.step, counts(r.raw)) for r in held[:5]]}")
+    if tail:
+        problems.append(f"left the new value: {[(r.step, counts(r.raw)) for r in tail[:5]]}")
     check(not problems, f"{what}: demand {detail}" + ("; " + "; ".join(problems) if problems else ""))
 
 
