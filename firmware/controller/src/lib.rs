@@ -288,4 +288,5 @@ pub mod config;
 pub mod link;
 pub mod params;
 pub mod stats;
+pub mod store;
 pub mod xcp;
