@@ -103,6 +103,7 @@ const EXPECTED: &[Expected] = &[
         per_channel: false,
         signals: &[
             ("Mode", "MODE", Kind::Enum),
+            ("CalibrationSource", "CALIBRATION_SOURCE", Kind::Enum),
             ("FaultCauses", "FAULT_CAUSES", Kind::Byte),
             ("MissedSamples", "MISSED_SAMPLES", Kind::Count),
             ("LateSamples", "LATE_SAMPLES", Kind::Count),

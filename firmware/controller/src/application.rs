@@ -145,6 +145,8 @@ pub struct StatusReport {
     pub rate_limited: u8,
     /// `true` while the communication watchdog sees the link as lost.
     pub link_lost: bool,
+    /// Where the running calibration came from at boot ([`crate::store::Source`] as `u8`).
+    pub calibration_source: u8,
     /// The counters.
     pub counters: Counters,
 }
@@ -211,6 +213,7 @@ pub struct Application {
     amplitude_limited: u8,
     rate_limited: u8,
     counters: Counters,
+    calibration_source: crate::store::Source,
 }
 
 impl Application {
@@ -231,6 +234,7 @@ impl Application {
             amplitude_limited: 0,
             rate_limited: 0,
             counters: Counters::default(),
+            calibration_source: crate::store::Source::Defaults,
         })
     }
 
@@ -257,6 +261,29 @@ impl Application {
     /// The status period K (steps).
     pub fn status_period(&self) -> u16 {
         self.status_period
+    }
+
+    /// Where the running calibration came from at boot.
+    pub fn calibration_source(&self) -> crate::store::Source {
+        self.calibration_source
+    }
+
+    /// Boot: runs the stored page `words` (already checked by [`crate::store::Store::load`])
+    /// and records `source`; a page that does not install leaves the defaults running and
+    /// records [`crate::store::Source::Refused`]. Returns the source recorded.
+    pub fn boot_with(
+        &mut self,
+        source: crate::store::Source,
+        words: Option<&[u32; crate::calibration::SLOTS]>,
+    ) -> crate::store::Source {
+        self.calibration_source = match words {
+            Some(words) => match crate::calibration::decode_page(words) {
+                Ok((prepared, settings)) if self.install(prepared, settings) == code::OK => source,
+                _ => crate::store::Source::Refused,
+            },
+            None => source,
+        };
+        self.calibration_source
     }
 
     /// The counters.
@@ -403,6 +430,7 @@ impl Application {
             amplitude_limited: self.amplitude_limited,
             rate_limited: self.rate_limited,
             link_lost: self.watchdog.seen && self.watchdog.expired(),
+            calibration_source: self.calibration_source as u8,
             counters: self.counters,
         }
     }

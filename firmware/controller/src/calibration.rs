@@ -549,7 +549,7 @@ pub struct MeasItem {
 }
 
 /// Number of measurement slots.
-pub const MEASUREMENTS: usize = 11;
+pub const MEASUREMENTS: usize = 14;
 /// Size of the measurement block (bytes).
 pub const MEASUREMENT_BYTES: usize = 4 * MEASUREMENTS;
 
@@ -643,6 +643,30 @@ pub const MEAS_ITEMS: [MeasItem; MEASUREMENTS] = [
         max: u32::MAX as f32,
         float: false,
     },
+    MeasItem {
+        name: "calibration_source",
+        description: "running calibration at boot: 0 build defaults (nothing stored), 1 stored page, 2 build defaults (stored page refused), 3 build defaults (storage unreadable)",
+        unit: "-",
+        min: 0.0,
+        max: 3.0,
+        float: false,
+    },
+    MeasItem {
+        name: "calibration_stores",
+        description: "calibration stores (SET_REQUEST STORE_CAL_REQ) written to flash since start",
+        unit: "-",
+        min: 0.0,
+        max: u32::MAX as f32,
+        float: false,
+    },
+    MeasItem {
+        name: "calibration_store_error",
+        description: "outcome of the last store: 0 stored, 1 page invalid, 2 flash error, 3 read-back differs",
+        unit: "-",
+        min: 0.0,
+        max: 4.0,
+        float: false,
+    },
 ];
 
 /// Slot of each measurement in [`MEASUREMENT`].
@@ -669,6 +693,12 @@ pub mod meas {
     pub const CAL_REJECTION: usize = 9;
     /// DAQ samples or packets dropped.
     pub const DAQ_DROPPED: usize = 10;
+    /// Where the running calibration came from at boot.
+    pub const CAL_SOURCE: usize = 11;
+    /// Calibration stores written.
+    pub const CAL_STORES: usize = 12;
+    /// Outcome of the last calibration store.
+    pub const CAL_STORE_ERROR: usize = 13;
 }
 
 /// The measurement block, in RAM (see the module documentation).
@@ -724,6 +754,18 @@ pub fn note_change(result: u8) {
     }
 }
 
+/// Records the outcome of a calibration store: [`meas::CAL_STORES`] counts the stored ones,
+/// [`meas::CAL_STORE_ERROR`] keeps 0 or the [`crate::store::StoreError`] of the last one.
+pub fn note_store(result: Result<(), crate::store::StoreError>) {
+    match result {
+        Ok(()) => {
+            count(meas::CAL_STORES);
+            store_u32(meas::CAL_STORE_ERROR, 0);
+        }
+        Err(e) => store_u32(meas::CAL_STORE_ERROR, e as u32),
+    }
+}
+
 /// The measurement block's words now.
 pub fn measurement_words() -> [u32; MEASUREMENTS] {
     core::array::from_fn(|i| MEASUREMENT.get(i).map_or(0, |w| w.load(Ordering::Relaxed)))
@@ -744,6 +786,7 @@ pub fn measurement_address() -> u32 {
 /// Stores the signals of the step `app` has just made into [`MEASUREMENT`] (call it after
 /// the demand frame is queued: it never delays the demand).
 pub fn record_step(app: &Application) {
+    store_u32(meas::CAL_SOURCE, app.calibration_source() as u32);
     let input = app.input();
     let status = app.status();
     store_f32(

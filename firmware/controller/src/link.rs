@@ -170,7 +170,10 @@ pub fn status_frame(s: &StatusReport) -> RawFrame {
     let c = &s.counters;
     encode_status(
         &LAYOUT,
-        &Status::saturating(wire_mode(s.mode), s.fault, c.missed, c.late, c.malformed),
+        &Status {
+            calibration_source: s.calibration_source,
+            ..Status::saturating(wire_mode(s.mode), s.fault, c.missed, c.late, c.malformed)
+        },
     )
 }
 

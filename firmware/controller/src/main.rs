@@ -40,6 +40,7 @@ mod app {
     use mil_firmware::config::{XCP_QUEUE, XCP_SECRET};
     use mil_firmware::link::{self, Request, Transport, COUNTER_MODULUS};
     use mil_firmware::params::code;
+    use mil_firmware::store::{self, Store};
     use mil_firmware::xcp::{
         response_frame, slave_config, AppAccess, Link, StepPlatform, StepSample, XcpRequest,
     };
@@ -79,6 +80,8 @@ mod app {
     #[local]
     struct Local {
         tick: port::Tick,
+        /// The stored calibration (flash), for the XCP task's stores.
+        store: Store<port::StoreFlash>,
         #[cfg(not(feature = "qemu"))]
         can: Receive,
         #[cfg(feature = "qemu")]
@@ -141,11 +144,19 @@ mod app {
         let clock = hw.clock;
         #[cfg(feature = "qemu")]
         let calibration = clock::Calibration::measure(&clock);
-        let app = match Application::new(COUNTER_MODULUS) {
+        let mut app = match Application::new(COUNTER_MODULUS) {
             Ok(app) => app,
             Err(_) => crate::fatal::stop(format_args!("default parameters rejected")),
         };
         calibration::mirror_application(&app);
+        // The stored calibration, if one passes its checks; else the build's defaults.
+        let Some(mut store) = Store::new(hw.store_flash, port::STORE_RANGE) else {
+            crate::fatal::stop(format_args!("calibration store range refused"));
+        };
+        // The flash answers at once (board: blocking; QEMU: RAM), so the boot completes here.
+        let source = store::complete(store::boot(&mut app, &mut store));
+        crate::log!("calibration at boot: {}", source.map_or(255, |s| s as u8));
+        let _ = source; // logged on the board only
         let (sender, receiver) = make_channel!(Request, QUEUE);
         if configure::spawn(receiver).is_err() {
             crate::fatal::stop(format_args!("configuration task not spawned"));
@@ -177,6 +188,7 @@ mod app {
             },
             Local {
                 tick: hw.tick,
+                store,
                 #[cfg(not(feature = "qemu"))]
                 can: Receive {
                     rx: hw.rx,
@@ -546,8 +558,9 @@ mod app {
     /// interleave). Holds the slave for the command (which blocks only the DAQ task and the
     /// watchdog tick, never the control step); a calibration change is validated on a copy
     /// and swapped in under the application's short lock (`mil_firmware::xcp::Target`).
-    #[task(priority = 1, shared = [app, tx, xcp, aux_tx])]
+    #[task(priority = 1, shared = [app, tx, xcp, aux_tx], local = [store])]
     async fn xcp(cx: xcp::Context, mut receiver: Receiver<'static, XcpRequest, XCP_QUEUE>) {
+        let store = cx.local.store;
         let xcp::SharedResources {
             mut app,
             mut tx,
@@ -566,6 +579,22 @@ mod app {
         while let Ok(request) = receiver.recv().await {
             handle_xcp(&request, &mut slave, &mut app, &mut platform, &mut out);
             send_xcp(request.link, out.iter(), &mut tx, &mut aux_tx);
+            // A calibration store the command asked for (SET_REQUEST STORE_CAL_REQ, taken only
+            // while the controller does not run): the working page to flash, then the slave
+            // clears its pending bit and sends EV_STORE_CAL.
+            if slave.lock(|s| s.as_ref().is_some_and(Slave::store_pending)) {
+                let result = store::store_working(store).await;
+                crate::log!(
+                    "calibration store: {}",
+                    result.map_or_else(|e| e as u8, |()| 0)
+                );
+                slave.lock(|s| {
+                    if let Some(s) = s.as_mut() {
+                        s.store_finished(result.is_ok(), &mut out);
+                    }
+                });
+                send_xcp(request.link, out.iter(), &mut tx, &mut aux_tx);
+            }
         }
     }
 

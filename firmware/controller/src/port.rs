@@ -111,6 +111,49 @@ mod board {
         }
     }
 
+    /// The flash range of the stored calibrations (offsets from the flash's start): sectors
+    /// 10 and 11, 2 × 128 KB at 0x080C_0000, outside the program (`memory.x` gives the
+    /// program the first 768 KB).
+    pub const STORE_RANGE: core::ops::Range<u32> = 0xC_0000..0x10_0000;
+
+    /// The STM32F405's own flash for the stored calibrations, behind
+    /// `embedded-storage-async`. Every operation completes before it returns: a program or
+    /// an erase (a 128 KB sector: typically 1-2 s) stalls the processor, interrupts
+    /// included, until it is done, which is why a store is refused while the controller
+    /// runs.
+    pub struct StoreFlash(stm32f4xx_hal::flash::LockedFlash);
+
+    impl embedded_storage_async::nor_flash::ErrorType for StoreFlash {
+        type Error = stm32f4xx_hal::flash::Error;
+    }
+
+    impl embedded_storage_async::nor_flash::ReadNorFlash for StoreFlash {
+        const READ_SIZE: usize = 1;
+
+        async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+            embedded_storage::nor_flash::ReadNorFlash::read(&mut self.0, offset, bytes)
+        }
+
+        fn capacity(&self) -> usize {
+            embedded_storage::nor_flash::ReadNorFlash::capacity(&self.0)
+        }
+    }
+
+    impl embedded_storage_async::nor_flash::NorFlash for StoreFlash {
+        const WRITE_SIZE: usize = 1;
+        const ERASE_SIZE: usize = 128 * 1024;
+
+        async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+            use stm32f4xx_hal::flash::FlashExt as _;
+            embedded_storage::nor_flash::NorFlash::erase(&mut self.0.unlocked(), from, to)
+        }
+
+        async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+            use stm32f4xx_hal::flash::FlashExt as _;
+            embedded_storage::nor_flash::NorFlash::write(&mut self.0.unlocked(), offset, bytes)
+        }
+    }
+
     /// The hardware after set-up.
     pub struct Hardware {
         /// Transmit half.
@@ -121,6 +164,8 @@ mod board {
         pub tick: Tick,
         /// No second link on the board.
         pub aux_tx: AuxTx,
+        /// The flash of the stored calibrations.
+        pub store_flash: StoreFlash,
     }
 
     /// Clocks, CAN1 and TIM2. `None` if a peripheral refuses its configuration.
@@ -159,6 +204,7 @@ mod board {
             rx: Rx(rx0),
             tick: Tick(tick),
             aux_tx: AuxTx,
+            store_flash: StoreFlash(stm32f4xx_hal::flash::LockedFlash::new(dp.FLASH)),
         })
     }
 }
@@ -299,7 +345,16 @@ mod qemu {
         pub tick_info: TickInfo,
         /// The control-path clock (TIM5), running.
         pub clock: Clock,
+        /// The "flash" of the stored calibrations: RAM (QEMU emulates no flash controller),
+        /// so a store lasts until reset.
+        pub store_flash: StoreFlash,
     }
+
+    /// The QEMU build's calibration storage: 2 pages of 1 KB in RAM.
+    pub type StoreFlash = mil_firmware::store::RamFlash<2, 1024>;
+
+    /// Its range: all of it.
+    pub const STORE_RANGE: core::ops::Range<u32> = 0..2048;
 
     /// Clocks (HSI), the control-path clock (TIM5), USART1 and TIM2. `None` if a peripheral
     /// refuses its configuration.
@@ -354,6 +409,7 @@ mod qemu {
                 period_us: f64::from(timer_counts) / timer_per_count / QEMU_COUNT_HZ * 1.0e6,
             },
             clock,
+            store_flash: StoreFlash::new(),
         })
     }
 }

@@ -216,6 +216,34 @@ impl<F: NorFlash> Store<F> {
     }
 }
 
+/// Boot: loads the stored page from `store` and makes `app` run it (the working page then
+/// holds it), or the build's defaults; the source is recorded in `app` (status frame,
+/// measurement `calibration_source`) and returned. Call it before the control step starts.
+pub async fn boot<F: NorFlash>(
+    app: &mut crate::application::Application,
+    store: &mut Store<F>,
+) -> Source {
+    let loaded = store.load().await;
+    let words = match &loaded {
+        Loaded::Stored(words) => Some(words),
+        _ => None,
+    };
+    let source = app.boot_with(loaded.source(), words);
+    calibration::mirror_application(app);
+    calibration::store_u32(calibration::meas::CAL_SOURCE, source as u32);
+    source
+}
+
+/// Stores the working page as it is now into `store` and records the outcome in the
+/// measurement block ([`calibration::note_store`]). The XCP task calls it for a pending
+/// SET_REQUEST STORE_CAL_REQ, then tells the slave
+/// ([`mil_xcp::Slave::store_finished`]).
+pub async fn store_working<F: NorFlash>(store: &mut Store<F>) -> Result<(), StoreError> {
+    let result = store.save(&calibration::working_words()).await;
+    calibration::note_store(result);
+    result
+}
+
 /// Runs a future that never waits (flash operations that complete at once, as on the board
 /// and in [`RamFlash`]) to its end; `None` if it waits.
 pub fn complete<T>(future: impl core::future::Future<Output = T>) -> Option<T> {

@@ -22,7 +22,7 @@
 //! command at a time, so no other change comes in between.
 
 use mil_frames::RawFrame;
-use mil_xcp::{Calibration, Memory, Page, Platform, Region, Rejected, SlaveConfig};
+use mil_xcp::{Calibration, Memory, Page, Platform, Region, Rejected, SlaveConfig, StoreRefused};
 
 use crate::application::{Application, Command};
 use crate::calibration::{
@@ -342,6 +342,21 @@ impl<A: AppAccess> Calibration for Target<A> {
 
     fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected> {
         noted(self.select_page(page).map_err(rejection))
+    }
+
+    /// Taken unless the controller runs: a flash erase stalls the processor for up to
+    /// seconds, which only Idle or Fault (demand at the safe value) can afford. The XCP task
+    /// then stores the working page ([`crate::store::Store::save`]).
+    fn request_store(&mut self) -> Result<(), StoreRefused> {
+        let running = self
+            .app
+            .with(|a| a.controller().mode() == model_core::Mode::Running);
+        if running {
+            calibration::note_store(Err(crate::store::StoreError::Running));
+            Err(StoreRefused::NotNow)
+        } else {
+            Ok(())
+        }
     }
 }
 
@@ -698,6 +713,109 @@ mod tests {
                 value: 2.0e5
             }),
             code::LOCKED
+        );
+        s.restore();
+    }
+
+    /// Issue 19, point 7, through the application logic: STORE_CAL_REQ is refused while
+    /// the controller runs, taken in Idle, and the XCP task's store
+    /// ([`crate::store::store_working`]) keeps the working page; after a power cycle the
+    /// board boots that page (working page, running set, GET_CAL_PAGE and the status frame's
+    /// source agree), and a flash whose record is not this build's boots the defaults and
+    /// says so.
+    #[test]
+    fn a_stored_calibration_survives_a_power_cycle() {
+        use crate::store::{self, complete, RamFlash, Source, Store};
+        let _turn = test_lock();
+        let mut flash = Store::new(RamFlash::<4, 1024>::new(), 0..4096).expect("range");
+        let mut s = Session::new();
+        assert_eq!(
+            complete(store::boot(&mut s.target.app, &mut flash)),
+            Some(Source::Defaults)
+        );
+        s.connect_and_unlock();
+        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        assert_eq!(
+            s.download_f32(CAL + 4 * calibration::SLOT_STATUS_PERIOD as u32, 20.0),
+            [0xFF]
+        );
+        // Running: refused, nothing pending.
+        assert_eq!(s.command(Command::Start), code::OK);
+        assert_eq!(s.send(&[0xF9, 0x01, 0, 0]), [0xFE, 0x33]);
+        assert!(!s.slave.store_pending());
+        assert_eq!(
+            calibration::measurement_words()[meas::CAL_STORE_ERROR],
+            store::StoreError::Running as u32
+        );
+        // Idle: taken, pending until the store is done, then EV_STORE_CAL.
+        assert_eq!(s.command(Command::Stop), code::OK);
+        assert_eq!(s.send(&[0xF9, 0x01, 0, 0]), [0xFF]);
+        assert_eq!(s.send(&[0xFD])[1] & 0x01, 0x01, "GET_STATUS: store pending");
+        let stores = calibration::measurement_words()[meas::CAL_STORES];
+        let result = complete(store::store_working(&mut flash));
+        assert_eq!(result, Some(Ok(())));
+        s.slave.store_finished(true, &mut s.out);
+        assert_eq!(s.out.iter().next(), Some(&[0xFD, 0x03][..]));
+        assert_eq!(s.send(&[0xFD])[1] & 0x01, 0, "GET_STATUS: done");
+        let w = calibration::measurement_words();
+        assert_eq!(
+            (w[meas::CAL_STORES], w[meas::CAL_STORE_ERROR]),
+            (stores + 1, 0)
+        );
+        let stored = calibration::working_words();
+
+        // Power cycle: RAM back to the build's state, a new application, the same flash.
+        s.restore();
+        let mut s = Session::new();
+        assert_eq!(
+            complete(store::boot(&mut s.target.app, &mut flash)),
+            Some(Source::Stored)
+        );
+        assert_eq!(calibration::working_words(), stored);
+        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        assert_eq!(s.target.app.status_period(), 20);
+        assert_eq!(
+            s.target.app.status().calibration_source,
+            Source::Stored as u8
+        );
+        s.connect_and_unlock();
+        s.assert_runs_the_named_page();
+        // The status frame says so.
+        let frame = crate::link::status_frame(&s.target.app.status());
+        let Ok(mil_frames::Message::Status(st)) = mil_frames::decode(&crate::link::LAYOUT, &frame)
+        else {
+            panic!("status frame");
+        };
+        assert_eq!(st.calibration_source, Source::Stored as u8);
+
+        // A record of another layout (a flash written by another firmware): the defaults,
+        // and the source says the stored page was refused.
+        let mut other = Store::new(RamFlash::<4, 1024>::new(), 0..4096).expect("range");
+        let mut record = store::encode(&stored);
+        record[4] ^= 0x5A;
+        let mut buffer = [0u8; 192];
+        let mut map = sequential_storage::map::MapStorage::<u8, _, _>::new(
+            other.into_flash(),
+            sequential_storage::map::MapConfig::new(0..4096),
+            sequential_storage::cache::Cache::new_uncached(),
+        );
+        complete(map.store_item(&mut buffer, &0u8, &&record[..]))
+            .expect("completes")
+            .expect("stored");
+        other = Store::new(map.destroy().0, 0..4096).expect("range");
+        s.restore();
+        let mut s = Session::new();
+        assert_eq!(
+            complete(store::boot(&mut s.target.app, &mut other)),
+            Some(Source::Refused)
+        );
+        assert_eq!(
+            s.target.app.params().model.tyre[0].stiffness,
+            TYRE.stiffness
+        );
+        assert_eq!(
+            calibration::measurement_words()[meas::CAL_SOURCE],
+            Source::Refused as u32
         );
         s.restore();
     }

@@ -272,6 +272,10 @@ pub struct Demand {
 pub struct Status {
     /// Board mode.
     pub mode: Mode,
+    /// Where the running calibration came from at boot (0..=3, 4 bits: 0 the build's
+    /// defaults, nothing stored; 1 the stored page; 2 defaults, a stored page was refused; 3
+    /// defaults, the storage could not be read).
+    pub calibration_source: u8,
     /// Latched fault causes, bit flags (`model_core::fault` bits 0–1; the firmware defines
     /// higher bits).
     pub fault_causes: u8,
@@ -284,7 +288,8 @@ pub struct Status {
 }
 
 impl Status {
-    /// A status from 32-bit event counts, each saturated to `u16::MAX`.
+    /// A status from 32-bit event counts, each saturated to `u16::MAX` (calibration source
+    /// 0; set the field for another).
     pub fn saturating(
         mode: Mode,
         fault_causes: u8,
@@ -295,6 +300,7 @@ impl Status {
         let sat = |v: u32| u16::try_from(v).unwrap_or(u16::MAX);
         Status {
             mode,
+            calibration_source: 0,
             fault_causes,
             missed_samples: sat(missed_samples),
             late_samples: sat(late_samples),
@@ -521,6 +527,7 @@ pub fn decode(layout: &Layout, frame: &RawFrame) -> Result<Message, DecodeError>
             use dbc::status as m;
             Message::Status(Status {
                 mode: get_mode(word, &m::MODE)?,
+                calibration_source: get_byte(word, &m::CALIBRATION_SOURCE),
                 fault_causes: get_byte(word, &m::FAULT_CAUSES),
                 missed_samples: get_count(word, &m::MISSED_SAMPLES),
                 late_samples: get_count(word, &m::LATE_SAMPLES),
@@ -642,6 +649,11 @@ pub fn encode_status(layout: &Layout, st: &Status) -> RawFrame {
     use dbc::status as s;
     let mut word = 0;
     put(&mut word, &s::MODE, st.mode as u64);
+    put(
+        &mut word,
+        &s::CALIBRATION_SOURCE,
+        u64::from(st.calibration_source),
+    );
     put(&mut word, &s::FAULT_CAUSES, u64::from(st.fault_causes));
     put_count(&mut word, &s::MISSED_SAMPLES, st.missed_samples);
     put_count(&mut word, &s::LATE_SAMPLES, st.late_samples);

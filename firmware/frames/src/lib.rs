@@ -20,7 +20,7 @@
 //! | [`Measurement`] | base + 0x00 + ch | 7 | servo → board, every sample | `Position` i24 (1e-6 m, ±1 m), `Road` i24 (1e-6 m, ±1 m), `Counter` u8 |
 //! | [`MeasurementAux`] | base + 0x08 + ch | 6 | servo → board, where needed | `Force` i32 (0.1 N, ±400 kN), `Speed` u16 (0.01 m/s, 0..150 m/s) |
 //! | [`Demand`] | base + 0x10 + ch | 6 | board → servo, one per measurement | `Demand` i32 (0.1 N, ±400 kN, saturating), `Counter` u8 (echo), `Mode` 2 bits, `FaultLatched`, `AmplitudeLimited`, `RateLimited` 1 bit each |
-//! | [`Status`] | base + 0x20 | 8 | board → bus, 10 Hz | `Mode` u8, `FaultCauses` u8, `MissedSamples`, `LateSamples`, `MalformedFrames` u16 (saturating) |
+//! | [`Status`] | base + 0x20 | 8 | board → bus, 10 Hz | `Mode` u4, `CalibrationSource` u4, `FaultCauses` u8, `MissedSamples`, `LateSamples`, `MalformedFrames` u16 (saturating) |
 //! | [`Command`] | base + 0x21 | 8 | tool → board | `Command` u8 (1 start, 2 stop, 3 clear fault, 4 set parameter, 5 set watchdog), `Index` u8, bytes 2–3 reserved (0), `Value` f32 |
 //! | [`CommandAck`] | base + 0x22 | 4 | board → tool | `Command` u8 (echo), `Index` u8 (echo), `Result` u8 (0 ok, else an error code), `Mode` u8 |
 //!

@@ -64,6 +64,7 @@ fn signals(m: &Message) -> BTreeMap<&'static str, f64> {
         ],
         Message::Status(s) => vec![
             ("Mode", f64::from(s.mode as u8)),
+            ("CalibrationSource", s.calibration_source.into()),
             ("FaultCauses", s.fault_causes.into()),
             ("MissedSamples", s.missed_samples.into()),
             ("LateSamples", s.late_samples.into()),
@@ -387,7 +388,7 @@ fn malformed_frames_from_cantools_are_refused() {
             DecodeError::InvalidMode,
         ),
         (
-            json!({"message": "Status", "signals": {"Mode": 7, "FaultCauses": 0, "MissedSamples": 0, "LateSamples": 0, "MalformedFrames": 0}, "strict": false}),
+            json!({"message": "Status", "signals": {"Mode": 7, "CalibrationSource": 0, "FaultCauses": 0, "MissedSamples": 0, "LateSamples": 0, "MalformedFrames": 0}, "strict": false}),
             DecodeError::InvalidMode,
         ),
         (

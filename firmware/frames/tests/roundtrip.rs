@@ -94,9 +94,9 @@ proptest! {
     }
 
     #[test]
-    fn status_round_trip(mode in mode(), faults in any::<u8>(), counts in any::<[u16; 3]>()) {
+    fn status_round_trip(mode in mode(), source in 0u8..16, faults in any::<u8>(), counts in any::<[u16; 3]>()) {
         let l = Layout::DEFAULT;
-        let s = Status { mode, fault_causes: faults, missed_samples: counts[0], late_samples: counts[1], malformed_frames: counts[2] };
+        let s = Status { mode, calibration_source: source, fault_causes: faults, missed_samples: counts[0], late_samples: counts[1], malformed_frames: counts[2] };
         prop_assert_eq!(decode(&l, &encode_status(&l, &s)), Ok(Message::Status(s)));
     }
 

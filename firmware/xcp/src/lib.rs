@@ -26,10 +26,11 @@
 //! |---|---|---|---|
 //! | FF | CONNECT | `FF 00` → `FF 05 C0 08 08 00 01 01` (CAL/PAG + DAQ, optional + slave block mode, MAX_CTO 8, MAX_DTO 8, versions 1/1) | — |
 //! | FE | DISCONNECT | `FE` → `FF` | — |
-//! | FD | GET_STATUS | `FD` → `FF status protection 00 00 00` (status bit 6: DAQ running) | — |
+//! | FD | GET_STATUS | `FD` → `FF status protection 00 00 00` (status bit 0: store pending, bit 6: DAQ running) | — |
 //! | FC | SYNCH | `FC` → `FE 00` | — |
 //! | FB | GET_COMM_MODE_INFO | `FB` → `FF 00 01 00 2A 00 00 01` (master block mode, MAX_BS 42, MIN_ST 0, queue 0, driver 0x01) | — |
 //! | FA | GET_ID | `FA 01` → `FF 00 00 00 len(u32)`, MTA → the ID string (UPLOAD it) | — |
+//! | F9 | SET_REQUEST | `F9 01 00 00` (STORE_CAL_REQ) → `FF`; GET_STATUS bit 0 then says pending until the store is done, which sends `FD 03` (EV_STORE_CAL) | CAL/PAG |
 //! | F8 | GET_SEED | `F8 00 res` → `FF 06 seed(6)` (`FF 00` if `res` is unlocked) | — |
 //! | F7 | UNLOCK | `F7 06 key(6)` → `FF protection` | — |
 //! | F6 | SET_MTA | `F6 00 00 00 addr(u32)` → `FF` | — |
@@ -58,7 +59,8 @@
 //! | D4 | ALLOC_ODT | `D4 00 list(u16) count` → `FF` | DAQ |
 //! | D3 | ALLOC_ODT_ENTRY | `D3 00 list(u16) odt count` → `FF` | DAQ |
 //!
-//! Every other command: `ERR_CMD_UNKNOWN`. Not implemented: SET_REQUEST, BUILD_CHECKSUM,
+//! Every other command: `ERR_CMD_UNKNOWN`. Not implemented: SET_REQUEST modes other than
+//! STORE_CAL_REQ (`ERR_OUT_OF_RANGE`), BUILD_CHECKSUM,
 //! SHORT_DOWNLOAD, DOWNLOAD_MAX, MODIFY_BITS, segment modes (freeze), CLEAR_DAQ_LIST,
 //! READ_DAQ, GET_DAQ_LIST_INFO, WRITE_DAQ_MULTIPLE (needs MAX_CTO ≥ 10), STIM, PGM, the
 //! XCP 1.3+ time correlation and level-1 commands.
@@ -182,7 +184,7 @@ mod tests;
 pub use config::{ConfigError, Region, SlaveConfig, MIN_SECRET_LEN};
 pub use daq::{MAX_DAQ_LISTS, MAX_ODTS, MAX_ODT_ENTRIES};
 pub use key::{compute_key, verify_key, KEY_LEN, SEED_LEN};
-pub use memory::{Calibration, Memory, Page, Platform, Rejected};
+pub use memory::{Calibration, Memory, Page, Platform, Rejected, StoreRefused};
 pub use protocol::{ErrorCode, MAX_CTO, MAX_DTO};
 pub use response::Responses;
 pub use slave::Slave;

@@ -108,6 +108,37 @@ pub trait Calibration {
     /// # Errors
     /// The reason when the application refuses to switch; the page stays as it was.
     fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected>;
+
+    /// Accept a request to store the working page in non-volatile memory (SET_REQUEST
+    /// STORE_CAL_REQ). The store itself runs later, outside the command (a flash write takes
+    /// long): the slave reports it pending in GET_STATUS until the application calls
+    /// [`Slave::store_finished`](crate::Slave::store_finished). Default: not supported.
+    ///
+    /// # Errors
+    /// Why the application does not take the request now.
+    fn request_store(&mut self) -> Result<(), StoreRefused> {
+        Err(StoreRefused::Unsupported)
+    }
+}
+
+/// Why the application does not take a calibration store request now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum StoreRefused {
+    /// The application keeps no calibration in non-volatile memory (`ERR_OUT_OF_RANGE`).
+    Unsupported,
+    /// Not now, e.g. while the controller runs (`ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE`).
+    NotNow,
+}
+
+impl StoreRefused {
+    /// The XCP error code the slave answers for this reason.
+    #[must_use]
+    pub const fn xcp_error(self) -> ErrorCode {
+        match self {
+            Self::Unsupported => ErrorCode::OutOfRange,
+            Self::NotNow => ErrorCode::ResourceTemporaryNotAccessible,
+        }
+    }
 }
 
 /// Board services: seed entropy and the DAQ clock.

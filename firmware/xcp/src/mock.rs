@@ -11,7 +11,7 @@
 use core::cell::Cell;
 
 use crate::config::{Region, SlaveConfig};
-use crate::memory::{Calibration, Memory, Page, Platform, Rejected};
+use crate::memory::{Calibration, Memory, Page, Platform, Rejected, StoreRefused};
 
 /// Start of the mock's calibration region.
 pub const CAL_START: u32 = 0x2000_0000;
@@ -106,6 +106,10 @@ pub struct MockEcu {
     pub rejections: u32,
     /// Refuse every ECU page switch with this reason (to test the refusal path).
     pub refuse_page_switch: Option<Rejected>,
+    /// Calibration stores requested (SET_REQUEST STORE_CAL_REQ) and taken.
+    pub store_requests: u32,
+    /// Refuse store requests with this reason; `None` takes them.
+    pub refuse_store: Option<StoreRefused>,
 }
 
 impl Default for MockEcu {
@@ -133,6 +137,8 @@ impl MockEcu {
             writes: 0,
             rejections: 0,
             refuse_page_switch: None,
+            store_requests: 0,
+            refuse_store: None,
         }
     }
 
@@ -246,6 +252,14 @@ impl Calibration for MockEcu {
             return Err(reason);
         }
         self.ecu_page = page;
+        Ok(())
+    }
+
+    fn request_store(&mut self) -> Result<(), StoreRefused> {
+        if let Some(reason) = self.refuse_store {
+            return Err(reason);
+        }
+        self.store_requests += 1;
         Ok(())
     }
 }

@@ -27,12 +27,32 @@ pub mod pid {
     pub const RES: u8 = 0xFF;
     /// Error (negative response).
     pub const ERR: u8 = 0xFE;
-    /// Event packet (not sent by this slave).
+    /// Event packet (EV_STORE_CAL only).
     pub const EV: u8 = 0xFD;
     /// Service request packet (not sent by this slave).
     pub const SERV: u8 = 0xFC;
     /// Highest PID of a DTO (absolute ODT number).
     pub const MAX_DTO_PID: u8 = 0xFB;
+}
+
+/// SET_REQUEST mode bits.
+pub mod request {
+    /// STORE_CAL_REQ: store the working page in non-volatile memory.
+    pub const STORE_CAL_REQ: u8 = 0x01;
+}
+
+/// Event codes (second byte of an event packet `FD code`).
+pub mod event {
+    /// EV_STORE_CAL: the calibration store requested by SET_REQUEST is done.
+    pub const STORE_CAL: u8 = 0x03;
+}
+
+/// GET_STATUS session status bits.
+pub mod session {
+    /// STORE_CAL_REQ pending: a calibration store is requested and not done yet.
+    pub const STORE_CAL_REQ: u8 = 0x01;
+    /// DAQ_RUNNING: at least one DAQ list runs.
+    pub const DAQ_RUNNING: u8 = 0x40;
 }
 
 /// Command codes (first byte of a command packet).
@@ -53,6 +73,8 @@ pub mod cmd {
     pub const GET_SEED: u8 = 0xF8;
     /// UNLOCK.
     pub const UNLOCK: u8 = 0xF7;
+    /// SET_REQUEST.
+    pub const SET_REQUEST: u8 = 0xF9;
     /// SET_MTA.
     pub const SET_MTA: u8 = 0xF6;
     /// UPLOAD.
@@ -159,6 +181,8 @@ pub enum ErrorCode {
     Generic = 0x31,
     /// Verify error (not used).
     Verify = 0x32,
+    /// Resource temporarily not accessible (a calibration store while the controller runs).
+    ResourceTemporaryNotAccessible = 0x33,
 }
 
 impl ErrorCode {

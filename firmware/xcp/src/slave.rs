@@ -50,6 +50,8 @@ pub struct Slave {
     pub(crate) pages: Pages,
     pub(crate) daq: Daq,
     pub(crate) last_rejection: Option<Rejected>,
+    /// A calibration store was requested (SET_REQUEST) and is not done yet.
+    pub(crate) store_pending: bool,
 }
 
 impl Slave {
@@ -70,6 +72,7 @@ impl Slave {
             pages: Pages::new(),
             daq: Daq::new(),
             last_rejection: None,
+            store_pending: false,
         })
     }
 
@@ -115,6 +118,25 @@ impl Slave {
     #[must_use]
     pub const fn last_rejection(&self) -> Option<Rejected> {
         self.last_rejection
+    }
+
+    /// Whether a calibration store was requested (SET_REQUEST STORE_CAL_REQ) and is not done
+    /// yet: the application stores the working page, then calls [`Slave::store_finished`].
+    #[must_use]
+    pub const fn store_pending(&self) -> bool {
+        self.store_pending
+    }
+
+    /// The requested store is done (`stored`: it went through): GET_STATUS no longer says
+    /// pending, and `out` is set to the EV_STORE_CAL event packet `FD 03` to send when it
+    /// went through (nothing otherwise: the master sees the pending bit clear without the
+    /// event and reads the reason from the application's measurements).
+    pub fn store_finished(&mut self, stored: bool, out: &mut Responses) {
+        self.store_pending = false;
+        out.clear();
+        if stored {
+            out.push(&[crate::protocol::pid::EV, crate::protocol::event::STORE_CAL]);
+        }
     }
 
     /// End the session as DISCONNECT does (e.g. on CAN bus-off): DAQ stopped and freed,
@@ -196,6 +218,7 @@ impl Slave {
             cmd::SYNCH => Err(ErrorCode::CmdSynch.into()),
             cmd::GET_COMM_MODE_INFO => self.get_comm_mode_info(out),
             cmd::GET_ID => self.get_id(cto, out),
+            cmd::SET_REQUEST => self.set_request(cto, target, out),
             cmd::GET_SEED => self.get_seed(cto, platform, out),
             cmd::UNLOCK => self.unlock(cto, out),
             cmd::SET_MTA => self.set_mta(cto, out),

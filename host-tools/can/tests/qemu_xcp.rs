@@ -242,10 +242,27 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
         }
     }
 
-    // A write reaches the model at a step boundary: 2.5e5 → 3.0e5 N/m gives +50 N at 1 mm.
+    // A write reaches the model at a step boundary, bumpless: 2.5e5 → 3.0e5 N/m asks for
+    // +50 N at 1 mm; the first step holds the demand, then it fades in over 200 steps (0.1 s,
+    // model-core's BUMPLESS_FADE_S), never by more than 50 N / 200 a step (plus the frame's
+    // 0.1 N resolution).
     assert_eq!(TYRE.stiffness, 2.5e5);
     assert_eq!(rig.download_f32(k, 3.0e5), vec![0xFF]);
-    let after = rig.step(position, road);
+    let first = rig.step(position, road);
+    assert!(
+        (first - before).abs() < 0.15,
+        "demand {before} N → {first} N at the swap"
+    );
+    let mut last = first;
+    for _ in 0..210 {
+        let d = rig.step(position, road);
+        assert!(
+            (d - last).abs() <= 50.0 / 200.0 + 0.15,
+            "step {last} → {d} N"
+        );
+        last = d;
+    }
+    let after = last;
     assert!(
         (after - before - 50.0).abs() < 0.2,
         "demand {before} N → {after} N, expected +50 N"
@@ -281,11 +298,18 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
     );
     assert_eq!(rig.upload_u32(meas_address("calibration_changes")), changes);
 
-    // ECU on the reference page: the defaults run; back on the working page: 3e5 again.
+    // ECU on the reference page: the defaults run; back on the working page: 3e5 again
+    // (each after its 200-step fade).
+    let settle = |rig: &mut Rig| {
+        for _ in 0..210 {
+            rig.step(position, road);
+        }
+        rig.step(position, road)
+    };
     rig.ok(&[0xEB, 0x01, 0x00, 0x01]);
-    assert!((rig.step(position, road) - before).abs() < 0.01);
+    assert!((settle(&mut rig) - before).abs() < 0.01);
     rig.ok(&[0xEB, 0x01, 0x00, 0x00]);
-    assert_eq!(rig.step(position, road), after);
+    assert!((settle(&mut rig) - after).abs() < 0.01);
 
     // DAQ: demand and steps on the control-step event, with timestamps.
     // ODT 0: the timestamp only (3 data bytes left); ODT 1: demand; ODT 2: steps (one

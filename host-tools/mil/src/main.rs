@@ -207,6 +207,13 @@ enum ParamCommand {
         #[command(flatten)]
         board: BoardArgs,
     },
+    /// Store the board's working page in its flash (XCP SET_REQUEST STORE_CAL_REQ): the board
+    /// boots with it from then on (its status frame and the measurement `calibration_source`
+    /// say so). Only while the controller does not run: a flash erase stalls the board.
+    Store {
+        #[command(flatten)]
+        board: BoardArgs,
+    },
 }
 
 #[derive(Subcommand)]
@@ -524,6 +531,12 @@ fn run_param(command: ParamCommand) -> Result<()> {
                 mil::param::set(m, &a2l, &assignments, &secret)
             })?;
             print!("{}", mil::param::changes_table(&a2l, &changes));
+        }
+        ParamCommand::Store { board } => {
+            let a2l = mil::xcp::load_a2l(&board.a2l)?;
+            let secret = mil::xcp::secret(&board)?;
+            let line = mil::xcp::session(&board, &a2l, |m| mil::param::store(m, &a2l, &secret))?;
+            print!("{line}");
         }
     }
     Ok(())

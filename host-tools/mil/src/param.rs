@@ -1,4 +1,5 @@
-//! `mil param list | get | set`: the board's calibration parameters by their A2L names.
+//! `mil param list | get | set | store`: the board's calibration parameters by their A2L
+//! names.
 //!
 //! - `list` needs the A2L file only: every parameter with unit, limits, address and
 //!   description, then the measurements (`mil daq record --signals`).
@@ -9,6 +10,9 @@
 //!   a whole), others one after another, and each parameter is printed `old → new` as read
 //!   back. A value the board still refuses is reported with its reason; that change is not
 //!   applied.
+//! - `store` saves the board's working page to its flash (XCP SET_REQUEST STORE_CAL_REQ, CAL/PAG
+//!   unlocked): the board boots it from then on. Refused while the controller runs; the
+//!   outcome is read back from the board's measurements.
 
 use std::fmt::Write as _;
 
@@ -157,6 +161,45 @@ pub fn set<T: Transport>(
     let (items, values) = check_assignments(a2l, assignments)?;
     master.unlock(resource::CAL_PAG, secret)?;
     Ok(master.write_items(&items, &values)?)
+}
+
+/// How long `store` waits for the board (a flash sector erase takes seconds).
+pub const STORE_WAIT: std::time::Duration = std::time::Duration::from_secs(20);
+
+/// What the board said of a store.
+const STORE_ERRORS: [&str; 5] = [
+    "stored",
+    "the working page does not validate (nothing was written)",
+    "the flash refused a write or an erase",
+    "read back, the stored page differs from the working page",
+    "refused while the controller runs: stop it first",
+];
+
+/// `store`: unlocks CAL/PAG, asks the board to store its working page, waits for it and
+/// reads back the outcome; the line to print.
+///
+/// # Errors
+/// The board's refusal (e.g. while the controller runs) or a failed store, with its reason.
+pub fn store<T: Transport>(master: &mut Master<T>, a2l: &A2l, secret: &[u8]) -> Result<String> {
+    master.unlock(resource::CAL_PAG, secret)?;
+    let stored = master.store_calibration(STORE_WAIT)?;
+    let names = [
+        "calibration_stores".to_string(),
+        "calibration_store_error".to_string(),
+    ];
+    let items = resolve(a2l, &names)?;
+    let values = master.read_items(&items)?;
+    let (count, error) = (values[0], values[1]);
+    let why = STORE_ERRORS
+        .get(error as usize)
+        .copied()
+        .unwrap_or("unknown reason");
+    if !stored || error != 0.0 {
+        bail!("the board did not store its calibration: {why} (calibration_store_error = {error})");
+    }
+    Ok(format!(
+        "stored the working page in the board's flash: it boots with it from now on ({count} stores since boot)\n"
+    ))
 }
 
 /// The `old → new` lines of `set`.

@@ -227,8 +227,40 @@ fn mil_param_and_daq_record_against_the_firmware() {
     assert!(worst <= 0.25, "demand step {worst} N");
     assert!((settled - after).abs() < 1.0, "{after} → {settled} N");
 
+    // Issue 19, point 7: `mil param store` is refused while the controller runs, with the
+    // reason; after a Stop it stores the working page (the QEMU build keeps it in RAM: QEMU
+    // emulates no flash controller) and the board counts it.
+    let o = run(&["param", "store"], TEST_SECRET);
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("stop it first"), "{}", text(&o));
+
     stop.store(true, Ordering::Relaxed);
     let mut link = runner.join().unwrap();
+    let stop_cmd = Cmd {
+        command: CommandKind::Stop,
+        index: 0,
+        value: 0.0,
+    };
+    link.send(&encode_command(&LAYOUT, &stop_cmd).unwrap())
+        .unwrap();
+    let o = run(&["param", "store"], TEST_SECRET);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("stored the working page"), "{}", text(&o));
+    let o = run(
+        &[
+            "param",
+            "get",
+            "calibration_stores",
+            "calibration_store_error",
+            "tyre_stiffness",
+        ],
+        TEST_SECRET,
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("calibration_stores      = 1"), "{t}");
+    assert!(t.contains("calibration_store_error = 0"), "{t}");
+    println!("mil param store (QEMU): {t}");
     link.close().unwrap();
     let out = qemu.finish(Duration::from_secs(20)).unwrap();
     assert!(out.status.is_some_and(|s| s.success()), "{}", out.stderr);

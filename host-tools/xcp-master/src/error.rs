@@ -71,6 +71,9 @@ impl XcpErrorCode {
             0x31 if writes => "refused: unstable or inconsistent parameter set",
             0x31 => "generic error",
             0x32 => "verification failed",
+            0x33 if command == cmd::SET_REQUEST => {
+                "the board stores its calibration only while the controller does not run: stop it first"
+            }
             0x33 => "resource temporarily not accessible",
             0x34 => "sub-command unknown",
             _ => "error code not defined by the standard",

@@ -44,6 +44,8 @@ pub struct SimBoard<M, P> {
     pub time_us: u32,
     /// Called once per step before sampling.
     pub step_hook: Option<StepHook<M>>,
+    /// Calibration stores done (SET_REQUEST STORE_CAL_REQ).
+    pub stores: u32,
     responses: Responses,
 }
 
@@ -57,6 +59,7 @@ impl<M: Memory + Calibration, P: Platform> SimBoard<M, P> {
             ids,
             time_us: 0,
             step_hook: None,
+            stores: 0,
             responses: Responses::new(),
         }
     }
@@ -75,6 +78,17 @@ impl<M: Memory + Calibration, P: Platform> SimBoard<M, P> {
         for r in self.responses.iter() {
             if let Some(f) = RawFrame::from_parts(self.ids.response, r) {
                 out(f);
+            }
+        }
+        // A calibration store the command asked for: done at once (a simulated board has no
+        // flash to wait for), which sends EV_STORE_CAL.
+        if self.slave.store_pending() {
+            self.stores += 1;
+            self.slave.store_finished(true, &mut self.responses);
+            for r in self.responses.iter() {
+                if let Some(f) = RawFrame::from_parts(self.ids.response, r) {
+                    out(f);
+                }
             }
         }
     }

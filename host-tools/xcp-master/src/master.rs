@@ -155,7 +155,13 @@ impl Status {
     /// Whether a DAQ list is running.
     #[must_use]
     pub fn daq_running(&self) -> bool {
-        self.session_status & 0x40 != 0
+        self.session_status & crate::protocol::session::DAQ_RUNNING != 0
+    }
+
+    /// Whether a calibration store (SET_REQUEST STORE_CAL_REQ) is still pending.
+    #[must_use]
+    pub fn store_pending(&self) -> bool {
+        self.session_status & crate::protocol::session::STORE_CAL_REQ != 0
     }
 
     /// Whether `resource` still needs seed & key.
@@ -272,6 +278,8 @@ pub struct Counters {
     pub foreign_frames: u64,
     /// EV and SERV packets (skipped).
     pub events: u64,
+    /// EV_STORE_CAL events (a calibration store done), counted among `events` too.
+    pub store_events: u64,
     /// DTOs while no DAQ session ran, responses nothing waited for, empty frames.
     pub stray: u64,
     /// DTOs dropped because the DAQ queue was full.
@@ -415,7 +423,12 @@ impl<T: Transport> Master<T> {
             match p.first().copied() {
                 Some(pid::RES) => return Ok(p.to_vec()),
                 Some(pid::ERR) => return Err(self.negative(code, p)),
-                Some(pid::EV | pid::SERV) => self.counters.events += 1,
+                Some(pid::EV | pid::SERV) => {
+                    self.counters.events += 1;
+                    if p == [pid::EV, crate::protocol::event::STORE_CAL] {
+                        self.counters.store_events += 1;
+                    }
+                }
                 Some(_) => self.keep_dto(p),
                 None => self.counters.stray += 1,
             }
@@ -563,6 +576,41 @@ impl<T: Transport> Master<T> {
             session_status: r[1],
             protection: r[2],
         })
+    }
+
+    /// SET_REQUEST STORE_CAL_REQ: asks the board to store its working page in non-volatile
+    /// memory, then polls GET_STATUS until the store is no longer pending (every 20 ms, at
+    /// most `wait`). `Ok(true)`: the board sent EV_STORE_CAL (stored); `Ok(false)`: the
+    /// pending bit cleared without it (the store failed: the board's measurements say why).
+    ///
+    /// # Errors
+    /// Not connected, a negative response (e.g. `ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE`
+    /// while the controller runs, `ERR_ACCESS_LOCKED`), a timeout, or still pending after
+    /// `wait`.
+    pub fn store_calibration(&mut self, wait: Duration) -> Result<bool> {
+        let before = self.counters.store_events;
+        self.transact(
+            &[
+                cmd::SET_REQUEST,
+                crate::protocol::request::STORE_CAL_REQ,
+                0,
+                0,
+            ],
+            1,
+        )?;
+        let deadline = Instant::now() + wait;
+        loop {
+            if !self.get_status()?.store_pending() {
+                return Ok(self.counters.store_events > before);
+            }
+            if Instant::now() > deadline {
+                return Err(Error::Unsupported(format!(
+                    "the board's calibration store is still pending after {} s",
+                    wait.as_secs_f64()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
     }
 
     /// GET_ID type 1 (the ASAM-MC2 file name without path and extension), uploaded from the
@@ -1110,7 +1158,12 @@ impl<T: Transport> Master<T> {
             let p = frame.payload();
             match p.first().copied() {
                 Some(p0) if p0 < pid::SERV => return Ok(Some(p.to_vec())),
-                Some(pid::EV | pid::SERV) => self.counters.events += 1,
+                Some(pid::EV | pid::SERV) => {
+                    self.counters.events += 1;
+                    if p == [pid::EV, crate::protocol::event::STORE_CAL] {
+                        self.counters.store_events += 1;
+                    }
+                }
                 _ => self.counters.stray += 1,
             }
         }

@@ -2,7 +2,7 @@
 //! of ASAM MCD-1 XCP 1.x (shared with the board's slave, `mil_xcp::protocol`), command names
 //! for messages, and the byte order of multi-byte fields.
 
-pub use mil_xcp::protocol::{cmd, pid, resource};
+pub use mil_xcp::protocol::{cmd, event, pid, request, resource, session};
 
 /// The name of a command code, as the standard spells it.
 #[must_use]
@@ -14,6 +14,7 @@ pub fn command_name(code: u8) -> &'static str {
         cmd::SYNCH => "SYNCH",
         cmd::GET_COMM_MODE_INFO => "GET_COMM_MODE_INFO",
         cmd::GET_ID => "GET_ID",
+        cmd::SET_REQUEST => "SET_REQUEST",
         cmd::GET_SEED => "GET_SEED",
         cmd::UNLOCK => "UNLOCK",
         cmd::SET_MTA => "SET_MTA",

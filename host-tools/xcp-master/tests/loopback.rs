@@ -680,3 +680,31 @@ fn too_many_signals_overflow_the_boards_daq_memory_and_leave_nothing_allocated()
     assert_eq!(s.values[4], f64::from(u32::from_le_bytes([16, 17, 18, 19])));
     session.stop().unwrap();
 }
+
+/// SET_REQUEST STORE_CAL_REQ: the master waits until the store is no longer pending and
+/// reports EV_STORE_CAL; a board that refuses (its controller runs) is reported with what
+/// to do.
+#[test]
+fn a_calibration_store_waits_for_the_board_and_reports_its_refusal() {
+    let mut m = connected();
+    assert_eq!(m.store_calibration(Duration::from_secs(1)).ok(), Some(true));
+    assert_eq!(m.transport_mut().board.stores, 1);
+    assert_eq!(m.counters().store_events, 1);
+    assert!(!m.get_status().expect("status").store_pending());
+    ecu(&mut m).refuse_store = Some(mil_xcp::StoreRefused::NotNow);
+    let e = m.store_calibration(Duration::from_secs(1)).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE") && text.contains("stop it first"),
+        "{text}"
+    );
+    assert_eq!(m.transport_mut().board.stores, 1);
+    // Locked: refused with the lock named, nothing stored.
+    let mut locked = master();
+    locked.connect().expect("connect");
+    let e = locked
+        .store_calibration(Duration::from_secs(1))
+        .unwrap_err();
+    assert!(e.to_string().contains("ERR_ACCESS_LOCKED"), "{e}");
+    assert_eq!(locked.transport_mut().board.stores, 0);
+}

@@ -1,12 +1,12 @@
-//! Session commands: CONNECT, DISCONNECT, GET_STATUS, GET_COMM_MODE_INFO, GET_ID, GET_SEED,
-//! UNLOCK (SYNCH is answered by the dispatcher).
+//! Session commands: CONNECT, DISCONNECT, GET_STATUS, GET_COMM_MODE_INFO, GET_ID,
+//! SET_REQUEST, GET_SEED, UNLOCK (SYNCH is answered by the dispatcher).
 
 use crate::access::{Mta, Virtual};
 use crate::key::{derive_seed, verify_key, KEY_LEN, SEED_LEN};
-use crate::memory::Platform;
+use crate::memory::{Calibration, Platform};
 use crate::protocol::{
-    resource, ErrorCode, DRIVER_VERSION, MAX_BS, MAX_CTO, MAX_DTO, PROTOCOL_LAYER_VERSION,
-    TRANSPORT_LAYER_VERSION,
+    request, resource, session, ErrorCode, DRIVER_VERSION, MAX_BS, MAX_CTO, MAX_DTO,
+    PROTOCOL_LAYER_VERSION, TRANSPORT_LAYER_VERSION,
 };
 use crate::response::Responses;
 use crate::slave::{PendingSeed, Slave};
@@ -17,8 +17,6 @@ use crate::wire::{byte, bytes, CmdResult};
 pub(crate) const COMM_MODE_BASIC: u8 = 0xC0;
 /// COMM_MODE_OPTIONAL: bit 0 MASTER_BLOCK_MODE (interleaved mode, bit 1, not supported).
 pub(crate) const COMM_MODE_OPTIONAL: u8 = 0x01;
-/// GET_STATUS session status bit: DAQ running.
-pub(crate) const STATUS_DAQ_RUNNING: u8 = 0x40;
 /// GET_ID identification type served: ASAM-MC2 file name without path and extension.
 pub(crate) const ID_TYPE_ASAM_MC2_NAME: u8 = 1;
 /// GET_ID mode: bit 0 clear = the identification is uploaded from the MTA (pyxcp's
@@ -59,12 +57,37 @@ impl Slave {
 
     /// GET_STATUS `FD`: `FF session_status protection reserved session_config_id(u16 = 0)`.
     pub(crate) fn get_status(&mut self, out: &mut Responses) -> CmdResult {
-        let status = if self.daq.running() {
-            STATUS_DAQ_RUNNING
-        } else {
-            0
-        };
+        let mut status = 0;
+        if self.daq.running() {
+            status |= session::DAQ_RUNNING;
+        }
+        if self.store_pending {
+            status |= session::STORE_CAL_REQ;
+        }
         out.ok(&[status, self.protected, 0, 0, 0]);
+        Ok(())
+    }
+
+    /// SET_REQUEST `F9 mode session_config_id(u16)`: mode STORE_CAL_REQ only (needs CAL/PAG
+    /// unlocked). The application takes the request ([`Calibration::request_store`]) or says
+    /// why not; taken, GET_STATUS says pending until [`Slave::store_finished`]. A request
+    /// while one is pending is answered `FF` and joins it.
+    pub(crate) fn set_request(
+        &mut self,
+        cto: &[u8],
+        target: &mut impl Calibration,
+        out: &mut Responses,
+    ) -> CmdResult {
+        self.require_unlocked(resource::CAL_PAG)?;
+        let mode = byte(cto, 1)?;
+        if mode != request::STORE_CAL_REQ {
+            return Err(ErrorCode::OutOfRange.into());
+        }
+        if !self.store_pending {
+            target.request_store().map_err(|r| r.xcp_error())?;
+            self.store_pending = true;
+        }
+        out.ok(&[]);
         Ok(())
     }
 

@@ -172,8 +172,8 @@ fn unknown_and_malformed_commands() {
     rig.connect();
     // Optional commands not implemented, and codes that are not commands.
     for code in [
-        0xF9_u8, 0xF3, 0xF2, 0xF1, 0xEE, 0xED, 0xEC, 0xE6, 0xE5, 0xE3, 0xDB, 0xD8, 0xD2, 0xC7,
-        0xC0, 0x00, 0x42,
+        0xF3_u8, 0xF2, 0xF1, 0xEE, 0xED, 0xEC, 0xE6, 0xE5, 0xE3, 0xDB, 0xD8, 0xD2, 0xC7, 0xC0,
+        0x00, 0x42,
     ] {
         assert_eq!(
             rig.one(&[code, 0, 0, 0]),
@@ -213,4 +213,41 @@ fn configs_are_checked() {
     c = good;
     c.secret = b"short";
     assert_eq!(Slave::new(c).err(), Some(ConfigError::SecretTooShort));
+}
+
+/// SET_REQUEST STORE_CAL_REQ: locked until CAL/PAG is unlocked, other modes refused, the
+/// application's refusal answered with its error, a taken request pending in GET_STATUS
+/// (bit 0) until the application says it is done, which sends EV_STORE_CAL.
+#[test]
+fn set_request_store_cal_is_pending_until_the_store_is_done() {
+    use crate::memory::StoreRefused;
+    let mut rig = Rig::new();
+    rig.connect();
+    assert_eq!(rig.one(&[0xF9, 0x01, 0, 0]), err(ErrorCode::AccessLocked));
+    rig.connect_unlocked();
+    assert_eq!(rig.one(&[0xF9, 0x02, 0, 0]), err(ErrorCode::OutOfRange));
+    assert_eq!(rig.one(&[0xF9]), err(ErrorCode::CmdSyntax));
+    rig.ecu.refuse_store = Some(StoreRefused::NotNow);
+    assert_eq!(
+        rig.one(&[0xF9, 0x01, 0, 0]),
+        err(ErrorCode::ResourceTemporaryNotAccessible)
+    );
+    assert!(!rig.slave.store_pending());
+    rig.ecu.refuse_store = None;
+    assert_eq!(rig.one(&[cmd::GET_STATUS])[1] & 0x01, 0);
+    assert_eq!(rig.one(&[0xF9, 0x01, 0, 0]), [0xFF]);
+    assert!(rig.slave.store_pending());
+    assert_eq!(rig.one(&[cmd::GET_STATUS])[1] & 0x01, 0x01);
+    // A second request joins the pending one.
+    assert_eq!(rig.one(&[0xF9, 0x01]), [0xFF]);
+    assert_eq!(rig.ecu.store_requests, 1);
+    let mut out = crate::Responses::new();
+    rig.slave.store_finished(true, &mut out);
+    assert_eq!(out.iter().collect::<Vec<_>>(), [&[0xFD, 0x03][..]]);
+    assert_eq!(rig.one(&[cmd::GET_STATUS])[1] & 0x01, 0);
+    // A failed store clears the bit without the event.
+    assert_eq!(rig.one(&[0xF9, 0x01, 0, 0]), [0xFF]);
+    rig.slave.store_finished(false, &mut out);
+    assert!(out.is_empty());
+    assert!(!rig.slave.store_pending());
 }
