@@ -228,7 +228,7 @@ const HEAD: [CalItem; 11] = [
     ),
     real(
         "safe_demand",
-        "demand in the safe state (inside the demand limits)",
+        "demand in the safe state; must lie within [demand_min, demand_max] (a page where it does not is refused)",
         "N",
         8,
         limits::DEMAND_AMPLITUDE,

@@ -1,8 +1,9 @@
 //! The panic and HardFault paths: leave the demand output in the safe state.
 //!
 //! Both builds: interrupts off (no task runs again), then one Demand frame with the default
-//! safe demand (1667.7 N, mode Fault, fault flag set) is sent best effort straight through the
-//! peripheral registers, bypassing the drivers the tasks own.
+//! safe demand (1667.7 N, mode Fault, fault flag set) and one Status frame saying why (mode
+//! Fault, fault bit 5 `FIRMWARE_STOPPED` with the bits latched before) are sent best effort
+//! straight through the peripheral registers, bypassing the drivers the tasks own.
 //! - Board: the frame goes into a free bxCAN mailbox (a pending frame is aborted if all three
 //!   are busy) and the CPU halts, logging the cause over defmt-rtt first. No demand frames
 //!   follow, so the servo controller's own watchdog (missing demands) takes the actuator to
@@ -14,12 +15,13 @@
 use core::panic::PanicInfo;
 
 use cortex_m_rt::{exception, ExceptionFrame};
-use mil_firmware::link::safe_demand_frame;
+use mil_firmware::link::{fatal_status_frame, safe_demand_frame};
 
 /// Sends the safe demand, reports `cause` and stops for good.
 pub fn stop(cause: core::fmt::Arguments) -> ! {
     cortex_m::interrupt::disable();
-    send_safe_demand();
+    send_frame(&safe_demand_frame(0));
+    send_frame(&fatal_status_frame());
     report(cause);
     halt()
 }
@@ -52,19 +54,17 @@ fn halt() -> ! {
     }
 }
 
-/// Board: one Demand frame into a bxCAN transmit mailbox, waiting a bounded time for it to
-/// leave.
+/// Board: one frame into a bxCAN transmit mailbox, waiting a bounded time for it to leave.
 // `unsafe` (two kinds, both confined to this function): `CAN1::steal` takes the registers
 // away from the driver that owns them, which is sound because interrupts are disabled and
 // this path never returns, so no other code touches CAN1 again (no concurrent access); and
 // the raw field writes (`bits`) the PAC marks unsafe, which are sound because every value is
-// in its field's range: the DLC is 6 (<= 8), the ID is the 11-bit standard Demand ID from
-// `mil_frames` (<= 0x7FF), the data are bytes.
+// in its field's range: the DLC is at most 8 (`min(8)`), the ID an 11-bit standard ID from
+// `mil_frames` (masked to 0x7FF), the data are bytes.
 #[cfg(not(feature = "qemu"))]
 #[allow(unsafe_code)]
-fn send_safe_demand() {
+fn send_frame(frame: &mil_frames::RawFrame) {
     let can = unsafe { stm32f4xx_hal::pac::CAN1::steal() };
-    let frame = safe_demand_frame(0);
     let free = |can: &stm32f4xx_hal::pac::CAN1| {
         let tsr = can.tsr().read();
         [
@@ -120,17 +120,17 @@ fn send_safe_demand() {
     }
 }
 
-/// QEMU: the Demand frame as one SLCAN line on USART1, polled writes.
+/// QEMU: the frame as one SLCAN line on USART1, polled writes.
 // `unsafe` (confined to this function): `USART1::steal` takes the registers away from the
 // driver that owns them, sound because interrupts are disabled and this path never returns
 // (no other code touches USART1 again); the raw data-register write (`bits`) is sound for
 // any byte value (the field is 9 bits wide).
 #[cfg(feature = "qemu")]
 #[allow(unsafe_code)]
-fn send_safe_demand() {
+fn send_frame(frame: &mil_frames::RawFrame) {
     let usart = unsafe { stm32f4xx_hal::pac::USART1::steal() };
     let mut line = [0u8; 32];
-    let n = mil_firmware::link::slcan_line(&safe_demand_frame(0), &mut line).unwrap_or(0);
+    let n = mil_firmware::link::slcan_line(frame, &mut line).unwrap_or(0);
     for &b in line.get(..n).unwrap_or(&[]) {
         let mut spins = 0u32;
         while usart.sr().read().txe().bit_is_clear() && spins < 1_000_000 {

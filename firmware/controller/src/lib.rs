@@ -209,14 +209,23 @@
 //! There is no `unwrap`, `expect`, indexing or division that can panic in the control path
 //! (clippy denies them crate-wide), and no heap. Should a panic or a HardFault happen anyway,
 //! the binary's `fatal` module disables interrupts, writes one Demand frame with the default
-//! safe demand (1667.7 N, mode Fault, fault flag) straight into a bxCAN mailbox (aborting
-//! pending frames if all three are busy) or, in QEMU, as an SLCAN line on USART1, then:
+//! safe demand (1667.7 N, mode Fault, fault flag) and one Status frame saying why (mode
+//! Fault, fault bit 5 `FIRMWARE_STOPPED` plus the bits latched at the last step, counters
+//! and calibration source from the measurement block) straight into bxCAN mailboxes
+//! (aborting pending frames if all three are busy) or, in QEMU, as SLCAN lines on USART1,
+//! then:
 //! - board: logs the cause over defmt-rtt and halts. No further demand frames come, so the
 //!   servo controller's own watchdog (missing demands) takes the actuator to its safe
 //!   state; the last demand it received is the safe one. A reset restarts the board in Idle
 //!   with the demand at the safe value.
 //! - QEMU: prints `mil-firmware FAILED: <cause>` on semihosting stderr and exits QEMU with
-//!   status 1 (never hangs, unlike panic-probe).
+//!   status 1 (never hangs, unlike panic-probe). The QEMU test build takes the line
+//!   `!HARDFAULT` as an order to execute an undefined instruction, so that
+//!   `cargo test -p mil-can --test qemu_lockstep a_hardfault` can watch the path: the safe
+//!   demand, the Status frame with bit 5, exit status 1 naming the HardFault's pc.
+//!
+//! The fatal path sends the build's default safe demand, not a tuned `safe_demand` (the
+//! running parameters belong to a task that may have been interrupted mid-change).
 //!
 //! ## Fault bits (Status `FaultCauses`, [`application::fault`])
 //!
@@ -226,6 +235,7 @@
 //! | 1 | `NUMERICAL` | model-core: a non-finite value in the model or the command filter |
 //! | 2, 3 | reserved | left free for model-core |
 //! | 4 | `COMM_TIMEOUT` | firmware: no valid measurement for N watchdog ticks while Running |
+//! | 5 | `FIRMWARE_STOPPED` | firmware: a panic or HardFault; only in the last Status frame, after which the board halts |
 //!
 //! All are latched (mode Fault, demand ramps to the safe demand) until a ClearFault command
 //! (Fault → Idle); a Start then runs the model again from rest.

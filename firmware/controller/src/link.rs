@@ -143,6 +143,37 @@ pub fn demand_raw(value: f32) -> Option<i32> {
 /// fault flag: what the panic and HardFault handlers send. Always encodable (a finite
 /// constant); should encoding ever fail, an all-zero payload on the demand ID is returned
 /// (0 N, mode Idle), still a valid, finite frame.
+/// The Status frame of the fatal path, after its safe Demand frame: mode Fault, fault bits
+/// [`crate::application::fault::FIRMWARE_STOPPED`] plus those latched at the last step, the
+/// missed and malformed counts of the last step and the calibration source, all read from
+/// the measurement block (atomics: nothing the stopped tasks hold is touched).
+pub fn fatal_status_frame() -> RawFrame {
+    let w = crate::calibration::measurement_words();
+    let at = |slot: usize| w.get(slot).copied().unwrap_or(0);
+    use crate::calibration::meas;
+    let latched = u8::try_from(at(meas::FAULT)).unwrap_or(0);
+    encode_status(
+        &LAYOUT,
+        &Status {
+            calibration_source: u8::try_from(at(meas::CAL_SOURCE)).unwrap_or(0),
+            ..Status::saturating(
+                mil_frames::Mode::Fault,
+                latched | crate::application::fault::FIRMWARE_STOPPED,
+                at(meas::MISSED),
+                0,
+                at(meas::MALFORMED),
+            )
+        },
+    )
+}
+
+/// The QEMU test build's line that forces a HardFault (`!HARDFAULT`, not SLCAN), so that a
+/// test can watch the fatal path: the safe Demand frame, then [`fatal_status_frame`], then
+/// QEMU exits with status 1. The board build has no such line.
+pub const QEMU_FORCE_HARDFAULT: &[u8] = b"!HARDFAULT";
+
+/// The Demand frame of the fatal path (panic, HardFault): the build's default safe demand,
+/// mode Fault, fault flag set.
 pub fn safe_demand_frame(counter: u8) -> RawFrame {
     let frame = mil_frames::Demand {
         channel: 0,

@@ -396,6 +396,11 @@ mod app {
                     continue;
                 }
             };
+            if line == link::QEMU_FORCE_HARDFAULT {
+                // The test build's deliberate HardFault (an undefined instruction), so that a
+                // test can watch the fatal path (`fatal`).
+                cortex_m::asm::udf();
+            }
             match qemu.session.on_line(line) {
                 link::LineAction::Frame(frame) => {
                     let received = clock.now();

@@ -12,7 +12,7 @@ use mil_can::{
     find_firmware_elf, Qemu, QemuOptions, RemoteBoard, SlcanTcp, Transport, FIRMWARE_BUILD_COMMAND,
     LAYOUT,
 };
-use mil_firmware::application::fault::COMM_TIMEOUT;
+use mil_firmware::application::fault::{COMM_TIMEOUT, FIRMWARE_STOPPED};
 use mil_firmware::config::{SAFE_DEMAND_N, SAFE_RAMP_N_PER_S, TYRE};
 use mil_frames::{encode_command, Command, CommandKind, Message};
 use mil_identify::band_limited_noise;
@@ -304,4 +304,54 @@ fn foreign_frame_gets_no_reply() {
         .unwrap();
     assert_eq!(link.recv(Duration::from_millis(300)).unwrap(), None);
     finish(qemu, board);
+}
+
+/// Issue 19: a forced HardFault in the QEMU build (the test build's `!HARDFAULT` line, an
+/// undefined instruction) while Running with the demand well above the safe value: the
+/// fatal path sends the safe Demand frame (mode Fault, fault flag) and then a Status frame
+/// that says why (fault bit 5, FIRMWARE_STOPPED), and QEMU exits with status 1 naming the
+/// HardFault.
+#[test]
+fn a_hardfault_leaves_the_safe_demand_and_says_why() {
+    let (qemu, mut board) = start_qemu();
+    board.start().unwrap();
+    let input = |road: f32| ModelInput {
+        road: [road],
+        ..ModelInput::default()
+    };
+    for _ in 0..60 {
+        board.step(&input(0.02)).unwrap();
+    }
+    assert_eq!(board.mismatches(), 0);
+    let link = board.transport_mut();
+    link.send_line(b"!HARDFAULT\r").unwrap();
+    let mut demand = None;
+    let mut status = None;
+    while status.is_none() {
+        match board.recv_message(Duration::from_secs(10)).unwrap() {
+            Some(Message::Demand(d)) => demand = Some(d),
+            Some(Message::Status(s)) if s.fault_causes & FIRMWARE_STOPPED != 0 => status = Some(s),
+            Some(_) => {}
+            None => panic!("no fatal frames within 10 s (demand {demand:?})"),
+        }
+    }
+    let (d, s) = (demand.expect("safe demand first"), status.unwrap());
+    assert!((d.demand_n - SAFE_DEMAND_N).abs() < 0.1, "{d:?}");
+    assert!(d.flags.mode == mil_frames::Mode::Fault && d.flags.fault_latched);
+    assert_eq!(s.mode, mil_frames::Mode::Fault);
+    let mut link = board.into_transport();
+    let _ = link.close();
+    let out = qemu.finish(Duration::from_secs(20)).unwrap();
+    assert_eq!(out.status.and_then(|s| s.code()), Some(1), "{}", out.stderr);
+    assert!(out.stderr.contains("HardFault at pc"), "{}", out.stderr);
+    eprintln!(
+        "forced HardFault: safe demand {:.1} N (mode {:?}), status fault bits {:#04x}; {}",
+        d.demand_n,
+        d.flags.mode,
+        s.fault_causes,
+        out.stderr
+            .lines()
+            .find(|l| l.contains("HardFault"))
+            .unwrap_or("")
+    );
 }
