@@ -94,6 +94,7 @@ ERR_NAMES = {
     ERR_ACCESS_DENIED: "ERR_ACCESS_DENIED",
     ERR_ACCESS_LOCKED: "ERR_ACCESS_LOCKED",
     ERR_GENERIC: "ERR_GENERIC",
+    0x33: "ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE",
 }
 # CommandAck codes of refused calibration changes (`calibration_last_rejection`).
 NOT_FINITE, OUT_OF_RANGE, INCONSISTENT = 129, 130, 132
@@ -840,6 +841,14 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
     x.setCalPage(0x02, 0, 0)
     check(page == ref, "working page equals the reference page after the copy"
           + ("" if page == ref else f": {page.hex()} vs {ref.hex()}"))
+
+    # SET_REQUEST STORE_CAL_REQ while the controller runs: refused (a flash erase would stall
+    # the board), nothing pending.
+    code, _ = xcp_error(x.setRequest, 0x01, 0)
+    check(code == 0x33, f"SET_REQUEST STORE_CAL_REQ while running: {err_name(code)}, expected ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE (0x33)")
+    status = x.getStatus()
+    pending = bool(status.sessionStatus.storeCalRequest)
+    check(not pending, f"GET_STATUS: store pending {pending} after the refusal")
 
     # 7. DAQ while the lockstep runs, on a moving road so that every step's demand differs.
     lock.shape = lambda step: (HOLD_POSITION, 2.0e-3 * math.sin(2 * math.pi * step / 50.0))
