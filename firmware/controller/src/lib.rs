@@ -98,7 +98,7 @@
 //! - **DAQ**: event channel 0 is the control step (cycle 500 µs); the DAQ timestamp is the
 //!   step's time (steps × 500 µs), as is GET_DAQ_CLOCK. After each step, once the demand frame
 //!   is queued, the receive task stores the step's signals into the measurement block and,
-//!   while a list runs, queues a copy of it (44 bytes) for the `daq` task; the DTOs are built
+//!   while a list runs, queues a copy of it (56 bytes) for the `daq` task; the DTOs are built
 //!   from that copy, so a sample is consistent even when the `daq` task runs late. A sample
 //!   that finds the queue full is dropped and counted (`daq_dropped`), as is a DTO the
 //!   transport refuses (on the board a demand frame displaces a pending lower-priority XCP
@@ -108,7 +108,7 @@
 //! - Tests: `cargo test -p mil-firmware --lib` (the target through the slave; a proptest of
 //!   random XCP sessions: the running parameters always equal the validated ECU page);
 //!   `cargo test -p mil-can --test qemu_xcp` (QEMU, USART1: the A2L of the real ELF, unlock,
-//!   writes reaching the demand at a step boundary, refusals, pages, DAQ in step with the
+//!   writes reaching the demand from a step boundary on, bumpless, refusals, pages, DAQ in step with the
 //!   demand frames); `firmware/controller/qemu/xcp_pyxcp.py --elf ELF --a2l A2L` (pyxcp
 //!   0.29 on USART2 through python-can's slcan, in CI); `cargo run -p mil-can --example
 //!   qemu_budget` (the control step with a DAQ list running).
