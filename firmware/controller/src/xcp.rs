@@ -556,6 +556,21 @@ mod tests {
                 && self.slave.protection() & mil_xcp::protocol::resource::CAL_PAG == 0
         }
 
+        /// A fuzzer's command through the slave: SET_MTA + DOWNLOAD pairs travel as two
+        /// commands; `check` sees the answer of each.
+        fn handle_parts(&mut self, c: &[u8], mut check: impl FnMut(&Responses)) {
+            let parts: Vec<&[u8]> = if c.first() == Some(&0xF6) && c.len() > 8 {
+                vec![&c[..8], &c[8..]]
+            } else {
+                vec![c]
+            };
+            for p in parts {
+                self.slave
+                    .handle(p, &mut self.target, &mut self.platform, &mut self.out);
+                check(&self.out);
+            }
+        }
+
         /// A Command frame's command, as the configuration task applies it.
         fn command(&mut self, c: Command) -> u8 {
             let unlocked = self.cal_unlocked();
@@ -1000,14 +1015,7 @@ mod tests {
                 let before = (s.running(), calibration::working_words());
                 match st {
                     Step::Xcp(c) => {
-                        let parts: Vec<&[u8]> = if c.first() == Some(&0xF6) && c.len() > 8 {
-                            vec![&c[..8], &c[8..]]
-                        } else {
-                            vec![&c[..]]
-                        };
-                        for p in parts {
-                            s.slave.handle(p, &mut s.target, &mut s.platform, &mut s.out);
-                        }
+                        s.handle_parts(c, |_| ());
                     }
                     Step::Frame(c) => {
                         let locked = !s.cal_unlocked();
@@ -1069,18 +1077,11 @@ mod tests {
             s.connect_and_unlock();
             let meas_before = calibration::measurement_words();
             for c in &commands {
-                // SET_MTA + DOWNLOAD pairs travel as two commands.
-                let parts: Vec<&[u8]> = if c.first() == Some(&0xF6) && c.len() > 8 {
-                    vec![&c[..8], &c[8..]]
-                } else {
-                    vec![&c[..]]
-                };
-                for p in parts {
-                    s.slave.handle(p, &mut s.target, &mut s.platform, &mut s.out);
-                    for r in s.out.iter() {
-                        proptest::prop_assert!(r.len() <= 8 && matches!(r[0], 0xFF | 0xFE));
-                    }
-                }
+                let mut well_formed = true;
+                s.handle_parts(c, |out| {
+                    well_formed &= out.iter().all(|r| r.len() <= 8 && matches!(r[0], 0xFF | 0xFE));
+                });
+                proptest::prop_assert!(well_formed);
                 if !s.slave.connected() {
                     s.connect_and_unlock();
                 }
