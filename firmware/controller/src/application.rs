@@ -500,6 +500,10 @@ impl Application {
             Ok(()) => {
                 self.status_period = settings.status_period;
                 self.watchdog.limit = settings.watchdog;
+                if let Some(&safe) = self.params().safe_demand.first() {
+                    crate::calibration::SAFE_DEMAND
+                        .store(safe.to_bits(), core::sync::atomic::Ordering::Relaxed);
+                }
                 code::OK
             }
             Err(e) => crate::params::error_code(&e),

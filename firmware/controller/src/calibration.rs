@@ -382,6 +382,17 @@ pub static WORKING: [AtomicU32; SLOTS] = {
     out
 };
 
+/// The running safe demand (channel 0, `f32` bits), for the fatal path: written by
+/// [`Application::install`](crate::application::Application::install) with every installed
+/// set (one atomic store, so a reader never sees half a value), read by
+/// [`crate::link::safe_demand_frame`] when a panic or HardFault has stopped every task.
+pub static SAFE_DEMAND: AtomicU32 = AtomicU32::new(crate::config::SAFE_DEMAND_N.to_bits());
+
+/// The safe demand of the set installed last ([`SAFE_DEMAND`]).
+pub fn running_safe_demand() -> f32 {
+    f32::from_bits(SAFE_DEMAND.load(Ordering::Relaxed))
+}
+
 /// Which page an access addresses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Page {

@@ -1,7 +1,7 @@
 //! The panic and HardFault paths: leave the demand output in the safe state.
 //!
-//! Both builds: interrupts off (no task runs again), then one Demand frame with the default
-//! safe demand (1667.7 N, mode Fault, fault flag set) and one Status frame saying why (mode
+//! Both builds: interrupts off (no task runs again), then one Demand frame with the running
+//! safe demand (`calibration::SAFE_DEMAND`, default 1667.7 N; mode Fault, fault flag set) and one Status frame saying why (mode
 //! Fault, fault bit 5 `FIRMWARE_STOPPED` with the bits latched before) are sent best effort
 //! straight through the peripheral registers, bypassing the drivers the tasks own.
 //! - Board: the frame goes into a free bxCAN mailbox (a pending frame is aborted if all three

@@ -208,8 +208,8 @@
 //!
 //! There is no `unwrap`, `expect`, indexing or division that can panic in the control path
 //! (clippy denies them crate-wide), and no heap. Should a panic or a HardFault happen anyway,
-//! the binary's `fatal` module disables interrupts, writes one Demand frame with the default
-//! safe demand (1667.7 N, mode Fault, fault flag) and one Status frame saying why (mode
+//! the binary's `fatal` module disables interrupts, writes one Demand frame with the running
+//! safe demand (default 1667.7 N; mode Fault, fault flag) and one Status frame saying why (mode
 //! Fault, fault bit 5 `FIRMWARE_STOPPED` plus the bits latched at the last step, counters
 //! and calibration source from the measurement block) straight into bxCAN mailboxes
 //! (aborting pending frames if all three are busy) or, in QEMU, as SLCAN lines on USART1,
@@ -224,8 +224,9 @@
 //!   `cargo test -p mil-can --test qemu_lockstep a_hardfault` can watch the path: the safe
 //!   demand, the Status frame with bit 5, exit status 1 naming the HardFault's pc.
 //!
-//! The fatal path sends the build's default safe demand, not a tuned `safe_demand` (the
-//! running parameters belong to a task that may have been interrupted mid-change).
+//! The safe demand it sends is the one of the set installed last (a tuned `safe_demand`
+//! included), kept in an atomic ([`calibration::SAFE_DEMAND`]) because the running
+//! parameters belong to a task the fault may have interrupted.
 //!
 //! ## Fault bits (Status `FaultCauses`, [`application::fault`])
 //!

@@ -24,7 +24,7 @@ use model_core::Mode;
 use crate::application::{
     Application, Command, Demand, Measurement, MeasurementAux, Output, StatusReport,
 };
-use crate::config::{SAFE_DEMAND_N, XCP_COMMAND_ID};
+use crate::config::XCP_COMMAND_ID;
 
 /// The measurement counter's modulus (the DBC's `Counter` is 8 bits).
 pub const COUNTER_MODULUS: u32 = 256;
@@ -172,12 +172,13 @@ pub fn fatal_status_frame() -> RawFrame {
 /// QEMU exits with status 1. The board build has no such line.
 pub const QEMU_FORCE_HARDFAULT: &[u8] = b"!HARDFAULT";
 
-/// The Demand frame of the fatal path (panic, HardFault): the build's default safe demand,
-/// mode Fault, fault flag set.
+/// The Demand frame of the fatal path (panic, HardFault): the safe demand of the set
+/// installed last ([`crate::calibration::running_safe_demand`]; the build's default until
+/// a set is installed), mode Fault, fault flag set.
 pub fn safe_demand_frame(counter: u8) -> RawFrame {
     let frame = mil_frames::Demand {
         channel: 0,
-        demand_n: SAFE_DEMAND_N,
+        demand_n: crate::calibration::running_safe_demand(),
         counter,
         flags: DemandFlags {
             mode: mil_frames::Mode::Fault,
@@ -509,6 +510,7 @@ pub fn slcan_line(frame: &RawFrame, out: &mut [u8]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::SAFE_DEMAND_N;
     use crate::config::XCP_COMMAND_ID;
     use crate::params::code;
     use mil_frames::{encode_command, encode_measurement};
@@ -692,12 +694,27 @@ mod tests {
 
     #[test]
     fn safe_frame_and_nan_never_sent() {
+        let _turn = crate::calibration::test_lock();
+        let mut app = Application::new(256).unwrap();
         let f = safe_demand_frame(3);
         let Ok(Message::Demand(d)) = decode(&LAYOUT, &f) else {
             panic!("not a demand");
         };
         assert!((d.demand_n - SAFE_DEMAND_N).abs() < 0.1);
         assert!(d.flags.fault_latched);
+        // A tuned safe demand is the one the fatal path sends.
+        let mut p = *app.params();
+        p.safe_demand = [2500.0];
+        let prepared = crate::config::Prepared::new(&p, crate::config::DT).unwrap();
+        let settings = crate::calibration::DEFAULT_SETTINGS;
+        assert_eq!(app.install(prepared, settings), crate::params::code::OK);
+        let Ok(Message::Demand(d)) = decode(&LAYOUT, &safe_demand_frame(4)) else {
+            panic!("not a demand");
+        };
+        assert!((d.demand_n - 2500.0).abs() < 0.1, "{d:?}");
+        let defaults = Application::new(256).unwrap();
+        let reset = crate::config::Prepared::new(defaults.params(), crate::config::DT).unwrap();
+        assert_eq!(app.install(reset, settings), crate::params::code::OK);
         let nan = Demand {
             force_n: [f32::NAN],
             counter: 3,
