@@ -61,7 +61,7 @@
 //! The physics is written here from the equations (`heldout/physics.rs`): explicit ODEs of
 //! each plant, each effect's law, fixed-step RK4 at 10 kHz with the inputs on a 20 kHz
 //! grid, sampled at 1 kHz. It uses nothing of `mil_diagnose::{effects, simulate, equation}`
-//! nor `mil-rig`'s plant or effects; only `mil_rig::rng::SplitMix64` (the project's RNG)
+//! nor `mil-rig`'s plant or effects; only `mil_numerics::rng::SplitMix64` (the project's RNG)
 //! and `mil_identify`'s band-limited noise. The model file is TOML text written here and the
 //! record CSV text, both parsed by the public API (`Model::from_toml`, `Record::from_reader`);
 //! the harness calls `diagnose` with default `Options` and reads only the public fields

@@ -32,7 +32,7 @@ fn main() -> std::io::Result<()> {
     )?;
     let (m, k, c, friction) = (20.0, 2.0e4, 60.0, 10.0);
     let dt = 1.0 / fs;
-    let mut rng = mil_rig::rng::SplitMix64::new(7);
+    let mut rng = mil_numerics::rng::SplitMix64::new(7);
     let tones: Vec<(f64, f64)> = (0..24)
         .map(|i| {
             let f = 0.2 * (40f64).powf(f64::from(i) / 23.0);

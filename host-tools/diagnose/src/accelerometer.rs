@@ -368,7 +368,7 @@ mod tests {
         let text = include_str!("../examples/tyre.toml").to_string();
         let model = Model::from_toml(&text).expect("tyre.toml");
         let dt = 1e-3;
-        let mut rng = mil_rig::rng::SplitMix64::new(7u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(7u64);
         let mut rnd = move || rng.uniform() - 0.5;
         let white: Vec<f64> = (0..len + 40).map(|_| rnd()).collect();
         // A running mean of 40 samples (nulls at 25 Hz), then a 1 s fade at each end.

@@ -3554,7 +3554,7 @@ mod selection_tests {
     #[test]
     fn log_ratio_std_is_that_of_independent_white_residuals() {
         let n = 20_000;
-        let mut rng = mil_rig::rng::SplitMix64::new(23u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(23u64);
         let mut normal = || {
             // Box–Muller.
             let (u, v) = (rng.uniform().max(1e-300), rng.uniform());
@@ -3679,7 +3679,7 @@ mod budget_tests {
     /// Hz plus 1 % of white noise.
     fn record(len: usize, fs: f64, top: f64) -> Record {
         let noise = 0.01;
-        let mut rng = mil_rig::rng::SplitMix64::new(11u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(11u64);
         let mut rnd = move || rng.uniform() - 0.5;
         let t: Vec<f64> = (0..len).map(|i| i as f64 / fs).collect();
         let sine = |t: &f64| {

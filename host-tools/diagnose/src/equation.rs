@@ -1157,7 +1157,7 @@ mod tests {
         let text = include_str!("../examples/oscillator.toml");
         let model = Model::from_toml(text).expect("oscillator.toml");
         let (n, dt) = (4000, 1e-3);
-        let mut rng = mil_rig::rng::SplitMix64::new(99u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(99u64);
         let mut rnd = move || rng.uniform() - 0.5;
         let force: Vec<f64> = (0..n).map(|_| 50.0 * rnd()).collect();
         let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();

@@ -239,7 +239,7 @@ mod tests {
     #[test]
     fn block_means_keep_white_noise_white_and_stamp_the_block_centre() {
         let n = 40_000;
-        let mut rng = mil_rig::rng::SplitMix64::new(3u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(3u64);
         let mut rnd = move || rng.uniform() - 0.5;
         let t: Vec<f64> = (0..n).map(|i| 2.0 + i as f64 * 1e-3).collect();
         let noise: Vec<f64> = (0..n).map(|_| rnd()).collect();

@@ -533,7 +533,7 @@ mod tests {
 
     #[test]
     fn lowpass_at_kept_samples_is_the_full_lowpass_there() {
-        let mut rng = mil_rig::rng::SplitMix64::new(5u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(5u64);
         let x: Vec<f64> = (0..5000).map(|_| rng.uniform() - 0.5).collect();
         let full = lowpass_zero_phase(&x, 40.0, 1e-3);
         let keep: Vec<usize> = (7..4990).step_by(5).collect();
@@ -548,7 +548,7 @@ mod tests {
 
     #[test]
     fn a_segmented_cache_filters_each_piece_as_a_record_of_its_own() {
-        let mut rng = mil_rig::rng::SplitMix64::new(11u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(11u64);
         // Three pieces, the middle one offset by a large step (a junction's jump).
         let pieces: Vec<Vec<f64>> = [0.0, 50.0, -3.0]
             .iter()
@@ -582,7 +582,7 @@ mod tests {
 
     #[test]
     fn quantile_is_the_nearest_rank_of_the_sorted_values() {
-        let mut rng = mil_rig::rng::SplitMix64::new(17u64);
+        let mut rng = mil_numerics::rng::SplitMix64::new(17u64);
         let mut x: Vec<f64> = (0..1001).map(|_| rng.uniform()).collect();
         x.push(f64::NAN);
         let mut sorted: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
@@ -630,7 +630,7 @@ mod tests {
 
     #[test]
     fn noise_std_of_a_slow_signal_with_white_noise() {
-        let mut rng = mil_rig::rng::SplitMix64::new(777);
+        let mut rng = mil_numerics::rng::SplitMix64::new(777);
         let mut normal = move || rng.normal();
         let dt = 1e-3;
         for sigma in [1e-4, 0.02] {
@@ -646,7 +646,7 @@ mod tests {
 
     #[test]
     fn white_noise_has_unit_correlation_time() {
-        let mut rng = mil_rig::rng::SplitMix64::new(12345);
+        let mut rng = mil_numerics::rng::SplitMix64::new(12345);
         let r: Vec<f64> = (0..5000).map(|_| rng.uniform() - 0.5).collect();
         assert!(correlation_time(&r) < 1.2);
         let smooth = lowpass_zero_phase(&r, 25.0, 1e-3);

@@ -65,7 +65,7 @@ pub fn robust(h: DMatrix<f64>, scores: &[DVector<f64>], sigma2_tau: f64) -> DMat
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mil_rig::rng::SplitMix64;
+    use mil_numerics::rng::SplitMix64;
 
     /// Least squares of `y = a + b x` by the sandwich, on `n` samples.
     fn fit(x: &[f64], y: &[f64]) -> (DVector<f64>, DMatrix<f64>, DMatrix<f64>) {

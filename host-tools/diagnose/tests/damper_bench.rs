@@ -25,7 +25,7 @@ mod common;
 
 use common::names;
 use mil_diagnose::{diagnose, Diagnosis, EffectKind, Model, Options, Record};
-use mil_rig::rng::SplitMix64;
+use mil_numerics::rng::SplitMix64;
 
 use std::f64::consts::PI;
 

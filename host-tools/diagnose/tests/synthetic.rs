@@ -9,7 +9,7 @@ mod common;
 use common::*;
 use mil_diagnose::{EffectKind, Model, Record};
 use mil_rig::effects::{CoulombFriction, CubicStiffness, Effects, QuadraticDamping};
-use mil_rig::rng::SplitMix64;
+use mil_numerics::rng::SplitMix64;
 
 /// Simulates the oscillator with `effects`; returns the record (time, force, x) with
 /// displacement noise `x_noise` (m rms) and force noise `f_noise` (N rms).

@@ -7,6 +7,7 @@ use num_complex::Complex64;
 use rustfft::FftPlanner;
 
 use crate::error::{IdentifyError, Result};
+use mil_numerics::rng::SplitMix64;
 
 /// Number of samples for a duration, with the checks common to both signals.
 fn sample_count(duration_s: f64, sample_rate_hz: f64) -> Result<usize> {
@@ -94,32 +95,6 @@ pub fn log_sine_sweep(
         .unwrap_or_else(|e| panic!("log_sine_sweep: {e}"))
 }
 
-/// SplitMix64 (Steele, Lea, Flood 2014): a small, fast, well-mixed 64-bit generator.
-#[derive(Debug, Clone)]
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `(0, 1]` (53 bits).
-    fn uniform_open0(&mut self) -> f64 {
-        ((self.next_u64() >> 11) + 1) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// A pair of independent standard normal deviates (Box–Muller).
-    fn normal_pair(&mut self) -> (f64, f64) {
-        let r = (-2.0 * self.uniform_open0().ln()).sqrt();
-        let theta = 2.0 * PI * self.uniform_open0();
-        (r * theta.cos(), r * theta.sin())
-    }
-}
-
 /// Band-limited random noise, as [`band_limited_noise`]; errors instead of panicking.
 ///
 /// Errors: a band not satisfying `0 <= f_min < f_max <= sample_rate/2` (`f_min > 0` for
@@ -152,7 +127,7 @@ pub fn try_band_limited_noise(
 
     // Hermitian spectrum with independent complex Gaussian coefficients in the band, zero
     // elsewhere (including DC), amplitude ∝ f^(-1/2) for pink noise (power ∝ 1/f).
-    let mut rng = SplitMix64(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut spectrum = vec![Complex64::default(); n];
     let mut in_band = 0usize;
     for k in 1..=n / 2 {

@@ -162,8 +162,7 @@ fn taper(t: f64, duration: f64, fade: f64) -> f64 {
     edge(t) * edge(duration - t)
 }
 
-/// The deterministic generator behind every noise source (reproducible from a seed).
-pub use mil_rig::rng::SplitMix64;
+use mil_numerics::rng::SplitMix64;
 
 /// Pink noise: white Gaussian noise through Paul Kellet's 1/f filter, a second-order
 /// Butterworth low-pass at `max_hz` (bilinear), a 0.2 Hz high-pass to remove drift, scaled to

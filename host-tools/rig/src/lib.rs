@@ -34,6 +34,5 @@ pub mod link;
 pub mod metrics;
 pub mod plant;
 pub mod rigs;
-pub mod rng;
 pub mod sensors;
 pub mod specimen;

@@ -30,7 +30,7 @@
 //! seeded [`SplitMix64`], in the order of sending, so the fault sequence of a seed does not
 //! depend on the delay.
 
-use crate::rng::SplitMix64;
+use mil_numerics::rng::SplitMix64;
 use serde::{Deserialize, Serialize};
 
 /// The largest transport delay accepted (control samples): 100 s at 10 kHz.

@@ -159,7 +159,7 @@ pub fn lowpass_zero_phase(x: &[f64], cutoff_hz: f64, sample_rate_hz: f64) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::SplitMix64;
+    use mil_numerics::rng::SplitMix64;
 
     /// Smooth broadband test signal: white noise through two one-pole low-passes.
     fn signal(n: usize, seed: u64) -> Vec<f64> {

@@ -23,7 +23,7 @@
 //!
 //! Noise is white and Gaussian from a seeded [`SplitMix64`], so a run is reproducible.
 
-use crate::rng::SplitMix64;
+use mil_numerics::rng::SplitMix64;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 

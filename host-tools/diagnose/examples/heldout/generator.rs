@@ -4,7 +4,7 @@
 use super::physics::{
     self, ElementEffect, Hidden, InputEffect, Plant, FINE_PER_SAMPLE, INPUT_RATE_HZ, OUT_RATE_HZ,
 };
-use mil_rig::rng::SplitMix64;
+use mil_numerics::rng::SplitMix64;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::error::Error;

@@ -1,0 +1,10 @@
+//! # mil-numerics
+//!
+//! The numerics the host tools share, one implementation each, low in the crate graph (it
+//! depends on nothing of the project): the analysis, the simulated rig, identification and
+//! diagnosis all call these instead of keeping their own.
+//!
+//! - [`rng`]: SplitMix64, the seeded generator of every reproducible noise (the rig's sensor
+//!   and link noise, identification's excitations, the tests' synthetic records).
+
+pub mod rng;
