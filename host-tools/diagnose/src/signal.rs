@@ -21,93 +21,11 @@ pub fn sample_at(u: &[f64], s: f64) -> f64 {
     u[i] + f * (u[i + 1] - u[i])
 }
 
-/// A second-order section `(b0, b1, b2, a1, a2)` (a0 = 1).
-type Biquad = [f64; 5];
-
-/// The two sections of a fourth-order Butterworth low-pass with cut-off `fc_over_fs`
-/// (cut-off over sample rate, in (0, 0.5)), bilinear transform with pre-warping.
-fn butterworth4(fc_over_fs: f64) -> [Biquad; 2] {
-    let k = (std::f64::consts::PI * fc_over_fs).tan();
-    let qs = [0.541_196_100_146_197, 1.306_562_964_876_376_6];
-    qs.map(|q| {
-        let norm = 1.0 / (1.0 + k / q + k * k);
-        let b0 = k * k * norm;
-        [
-            b0,
-            2.0 * b0,
-            b0,
-            2.0 * (k * k - 1.0) * norm,
-            (1.0 - k / q + k * k) * norm,
-        ]
-    })
-}
-
-/// Runs the cascade of two sections over `x` in place, in the order `samples` gives
-/// (forward or reversed), starting both sections in the steady state of the first sample
-/// (unit DC gain). The sections run in one loop so that the second section's recursion
-/// overlaps the first's (the arithmetic is that of running them one after the other).
-fn run_cascade<'a>(s: &[Biquad; 2], samples: impl Iterator<Item = &'a mut f64>, x0: f64) {
-    let [a, b] = s;
-    let (mut a1, mut a2) = (x0 * (1.0 - a[0]), x0 * (a[2] - a[4]));
-    let (mut b1, mut b2) = (x0 * (1.0 - b[0]), x0 * (b[2] - b[4]));
-    for v in samples {
-        let inp = *v;
-        let o1 = a[0] * inp + a1;
-        a1 = a[1] * inp - a[3] * o1 + a2;
-        a2 = a[2] * inp - a[4] * o1;
-        let o2 = b[0] * o1 + b1;
-        b1 = b[1] * o1 - b[3] * o2 + b2;
-        b2 = b[2] * o1 - b[4] * o2;
-        *v = o2;
-    }
-}
-
-/// Zero-phase (forward-backward) fourth-order Butterworth low-pass at `fc_hz` (Hz) of a
-/// signal sampled every `dt` (s): magnitude `|H|²` of the fourth-order filter, no phase.
-/// The ends are padded by odd reflection to limit start-up transients. A cut-off at or
-/// above 0.49 of the sample rate returns the signal unchanged. The filter is linear in
-/// `x`.
-pub fn lowpass_zero_phase(x: &[f64], fc_hz: f64, dt: f64) -> Vec<f64> {
-    match lowpass_padded(x, fc_hz, dt) {
-        Some((mut y, pad)) => {
-            y.truncate(pad + x.len());
-            y.drain(..pad);
-            y
-        }
-        None => x.to_vec(),
-    }
-}
-
-/// [`lowpass_zero_phase`] of `x` at the sample indices `keep` only (each below `x.len()`):
-/// the same numbers, without the copy of the whole filtered signal.
-pub fn lowpass_zero_phase_at(x: &[f64], fc_hz: f64, dt: f64, keep: &[usize]) -> Vec<f64> {
-    match lowpass_padded(x, fc_hz, dt) {
-        Some((y, pad)) => keep.iter().map(|&t| y[pad + t]).collect(),
-        None => keep.iter().map(|&t| x[t]).collect(),
-    }
-}
-
-/// The forward-backward filtering of [`lowpass_zero_phase`] on `x` padded at both ends:
-/// `(padded result, pad)` (sample `t` of `x` at `pad + t`), or `None` when the signal is
-/// passed unchanged (fewer than 4 samples, or a cut-off at or above 0.49 of the rate).
-fn lowpass_padded(x: &[f64], fc_hz: f64, dt: f64) -> Option<(Vec<f64>, usize)> {
-    let r = fc_hz * dt;
-    if x.len() < 4 || r >= 0.49 {
-        return None;
-    }
-    let sections = butterworth4(r.max(1e-6));
-    let pad = ((3.0 / r) as usize).min(x.len() - 1);
-    let n = x.len();
-    let mut y = Vec::with_capacity(n + 2 * pad);
-    y.extend((1..=pad).rev().map(|i| 2.0 * x[0] - x[i]));
-    y.extend_from_slice(x);
-    y.extend((1..=pad).map(|i| 2.0 * x[n - 1] - x[n - 1 - i]));
-    let first = y[0];
-    run_cascade(&sections, y.iter_mut(), first);
-    let last = y[y.len() - 1];
-    run_cascade(&sections, y.iter_mut().rev(), last);
-    Some((y, pad))
-}
+/// The zero-phase fourth-order Butterworth low-pass diagnosis filters with
+/// (`mil_numerics::filter`, the workspace's one implementation).
+pub use mil_numerics::filter::{
+    lowpass4_zero_phase as lowpass_zero_phase, lowpass4_zero_phase_at as lowpass_zero_phase_at,
+};
 
 /// A 128-bit fingerprint of a signal's exact bits (and its length and `salt`), as a key of
 /// [`LowpassCache`]: two independent multiply-xorshift chains, so that two different

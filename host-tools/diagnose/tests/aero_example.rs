@@ -13,9 +13,9 @@ mod common;
 
 use common::noisy;
 use mil_diagnose::{diagnose, EffectKind, Model, Options, Record};
+use mil_numerics::rng::SplitMix64;
 use mil_rig::effects::{BumpStop, Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
-use mil_numerics::rng::SplitMix64;
 use mil_rig::specimen::{PlacedElement, Specimen};
 
 /// Record sample rate (Hz) and length (s).

@@ -8,8 +8,8 @@ mod common;
 
 use common::*;
 use mil_diagnose::{EffectKind, Model, Record};
-use mil_rig::effects::{CoulombFriction, CubicStiffness, Effects, QuadraticDamping};
 use mil_numerics::rng::SplitMix64;
+use mil_rig::effects::{CoulombFriction, CubicStiffness, Effects, QuadraticDamping};
 
 /// Simulates the oscillator with `effects`; returns the record (time, force, x) with
 /// displacement noise `x_noise` (m rms) and force noise `f_noise` (N rms).

@@ -199,20 +199,8 @@ pub fn pink(n: usize, dt: f64, rms: f64, max_hz: f64, seed: u64) -> Vec<f64> {
 }
 
 fn butterworth_lowpass(x: &mut [f64], fc: f64, dt: f64) {
-    let k = (std::f64::consts::PI * fc * dt).tan();
-    let q = std::f64::consts::FRAC_1_SQRT_2;
-    let norm = 1.0 / (1.0 + k / q + k * k);
-    let b0 = k * k * norm;
-    let (b1, b2) = (2.0 * b0, b0);
-    let a1 = 2.0 * (k * k - 1.0) * norm;
-    let a2 = (1.0 - k / q + k * k) * norm;
-    let (mut s1, mut s2) = (0.0, 0.0);
-    for v in x.iter_mut() {
-        let y = b0 * *v + s1;
-        s1 = b1 * *v - a1 * y + s2;
-        s2 = b2 * *v - a2 * y;
-        *v = y;
-    }
+    let s = mil_numerics::filter::butterworth2(fc * dt);
+    mil_numerics::filter::run_section(&s, x.iter_mut(), 0.0);
 }
 
 fn highpass(x: &mut [f64], fc: f64, dt: f64) {

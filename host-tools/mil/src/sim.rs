@@ -20,11 +20,12 @@ use mil_analysis::response::CommandFilter;
 use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, ServoHydraulicActuator};
 use mil_identify::{h1_estimate, FrfEstimate, Record, WelchOptions, Window};
+use mil_numerics::filter::lowpass2_zero_phase;
 use mil_plots::{BodePlot, BodeSeries, SeriesStyle, XyPlot, XySeries};
 use mil_rig::actuator::ForceActuator;
 use mil_rig::effects::Element;
 use mil_rig::harness::{self, Histories, Instrumentation, LinkStatistics, RigPart};
-use mil_rig::metrics::{compare, lowpass_zero_phase, Comparison};
+use mil_rig::metrics::{compare, Comparison};
 use mil_rig::rigs::IdealAero;
 use mil_rig::specimen::Specimen;
 use model_core::{Controller, Mode, ModelInput, PreparedParams, Status, SubstructureModel};
@@ -339,7 +340,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
         ModelKind::Substructure => (0..channels).map(|c| format!("channel {c}")).collect(),
     };
     let skip = settle_samples(config, histories.len());
-    let band = |x: &[f64]| lowpass_zero_phase(x, config.compare.f_max_hz, fs);
+    let band = |x: &[f64]| lowpass2_zero_phase(x, config.compare.f_max_hz, 1.0 / fs);
     let channel = (0..channels)
         .map(|c| {
             let (mf, ef) = (

@@ -6,5 +6,9 @@
 //!
 //! - [`rng`]: SplitMix64, the seeded generator of every reproducible noise (the rig's sensor
 //!   and link noise, identification's excitations, the tests' synthetic records).
+//! - [`filter`]: Butterworth low-pass sections (bilinear, pre-warped), causal or zero-phase:
+//!   the rig's in-band comparisons, the generated road noise, diagnosis' differentiation
+//!   filters.
 
+pub mod filter;
 pub mod rng;

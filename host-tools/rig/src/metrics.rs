@@ -121,41 +121,6 @@ pub fn delay_samples(measured: &[f64], desired: &[f64], max_lag: usize) -> Optio
     Some(lags[best] as f64 + shift)
 }
 
-/// `x` through a second-order Butterworth low-pass at `cutoff_hz` (Hz) forwards and then
-/// backwards (zero phase, fourth-order magnitude: −6 dB at the cut-off), for comparing
-/// signals within a band: sensor noise the command filter amplifies above the band then
-/// stays out of the in-band figures. The filter starts from the first (last) sample, so a
-/// static value passes without a transient.
-pub fn lowpass_zero_phase(x: &[f64], cutoff_hz: f64, sample_rate_hz: f64) -> Vec<f64> {
-    let k = (std::f64::consts::PI * cutoff_hz / sample_rate_hz).tan();
-    let q = std::f64::consts::FRAC_1_SQRT_2;
-    let norm = 1.0 / (1.0 + k / q + k * k);
-    let b0 = k * k * norm;
-    let (b1, b2) = (2.0 * b0, b0);
-    let a1 = 2.0 * (k * k - 1.0) * norm;
-    let a2 = (1.0 - k / q + k * k) * norm;
-    let pass = |input: &mut dyn Iterator<Item = f64>, first: f64| -> Vec<f64> {
-        // Transposed direct form II, started in the steady state of `first`.
-        let (mut s1, mut s2) = (first - b0 * first, b2 * first - a2 * first);
-        input
-            .map(|v| {
-                let y = b0 * v + s1;
-                s1 = b1 * v - a1 * y + s2;
-                s2 = b2 * v - a2 * y;
-                y
-            })
-            .collect()
-    };
-    let Some(&first) = x.first() else {
-        return Vec::new();
-    };
-    let forward = pass(&mut x.iter().copied(), first);
-    let last = forward.last().copied().unwrap_or(first);
-    let mut backward = pass(&mut forward.iter().rev().copied(), last);
-    backward.reverse();
-    backward
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -197,38 +162,6 @@ mod tests {
         assert!((delay_samples(&lead, &x, 50).unwrap() + 4.0).abs() < 0.05);
         assert_eq!(delay_samples(&lead, &x, 3), None);
         assert_eq!(delay_samples(&vec![1.0; 100], &x[..100], 10), None);
-    }
-
-    #[test]
-    fn zero_phase_lowpass_passes_the_band_and_removes_what_is_above() {
-        let fs = 2000.0;
-        let tone = |f: f64| -> Vec<f64> {
-            (0..8000)
-                .map(|k| 5.0 + (std::f64::consts::TAU * f * k as f64 / fs).sin())
-                .collect()
-        };
-        let amplitude = |x: &[f64]| {
-            // Middle half, away from the ends.
-            let mid = &x[2000..6000];
-            let m = mid.iter().sum::<f64>() / mid.len() as f64;
-            (2.0 * mid.iter().map(|v| (v - m).powi(2)).sum::<f64>() / mid.len() as f64).sqrt()
-        };
-        // 5 Hz through a 30 Hz cut-off: gain 1 within 1e-4, no phase shift, the static 5 kept.
-        let x = tone(5.0);
-        let y = lowpass_zero_phase(&x, 30.0, fs);
-        assert!((amplitude(&y) - 1.0).abs() < 1e-3, "{}", amplitude(&y));
-        let worst = x[2000..6000]
-            .iter()
-            .zip(&y[2000..6000])
-            .fold(0.0_f64, |w, (a, b)| w.max((a - b).abs()));
-        assert!(worst < 2e-3, "{worst}");
-        let flat = lowpass_zero_phase(&[5.0; 100], 30.0, fs);
-        assert!(flat.iter().all(|v| (v - 5.0).abs() < 1e-12), "{flat:?}");
-        // At the cut-off −6 dB; 150 Hz attenuated by (30/150)^4.
-        let at = amplitude(&lowpass_zero_phase(&tone(30.0), 30.0, fs));
-        assert!((at - 0.5).abs() < 0.01, "{at}");
-        let above = amplitude(&lowpass_zero_phase(&tone(150.0), 30.0, fs));
-        assert!(above < 2.0 * (30.0f64 / 150.0).powi(4), "{above}");
     }
 
     #[test]

@@ -7,9 +7,9 @@
 #![allow(dead_code)]
 
 use mil_diagnose::{diagnose, Diagnosis, EffectKind, Model, Options, Record};
+use mil_numerics::rng::SplitMix64;
 use mil_rig::effects::{Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
-use mil_numerics::rng::SplitMix64;
 use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
 
 /// Oscillator mass (kg).

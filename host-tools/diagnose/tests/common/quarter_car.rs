@@ -9,9 +9,9 @@
 #![allow(dead_code)]
 
 use mil_diagnose::Record;
+use mil_numerics::rng::SplitMix64;
 use mil_rig::effects::{AsymmetricDamping, Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
-use mil_numerics::rng::SplitMix64;
 use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
 
 /// Record sample rate (Hz).
