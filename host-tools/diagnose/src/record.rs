@@ -4,10 +4,6 @@ use crate::{Error, Result};
 use std::io::Read;
 use std::path::Path;
 
-/// Relative tolerance on the sample interval: every step must be within this fraction of
-/// the mean step (timestamps printed with few digits still pass).
-pub const STEP_TOLERANCE: f64 = 0.01;
-
 /// A validated record: uniform time base and named, finite columns.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Record {
@@ -22,81 +18,59 @@ pub struct Record {
 }
 
 impl Record {
-    /// Reads a CSV file.
+    /// Reads a CSV file (the workspace's one reader, `mil_numerics::record`: comma,
+    /// semicolon or tab; units in the header; decimal commas; `#` comment lines).
     ///
     /// # Errors
     /// Unreadable file, or see [`Record::from_reader`].
     pub fn read(path: &Path) -> Result<Self> {
-        let file = std::fs::File::open(path).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_reader(file).map_err(|e| Error::Record(format!("{}: {e}", path.display())))
+        if let Err(source) = std::fs::metadata(path) {
+            return Err(Error::Io {
+                path: path.display().to_string(),
+                source,
+            });
+        }
+        let table = mil_numerics::record::read(path).map_err(|e| Error::Record(e.to_string()))?;
+        Self::from_table(table).map_err(|e| Error::Record(format!("{}: {e}", path.display())))
     }
 
-    /// Parses CSV text from a reader: header with `time` first, at least one more column,
-    /// at least 16 rows, finite numbers, strictly increasing uniform time (every step within
-    /// [`STEP_TOLERANCE`] of the mean step).
+    /// Parses CSV text from a reader: header with `time` first (unit, if given, `s`), at
+    /// least one more column, at least 16 rows, finite numbers, a uniform time base
+    /// (`mil_numerics::record::uniform_time_base`: increasing, every sample within 0.4
+    /// intervals of the uniform grid).
     ///
     /// # Errors
-    /// The first problem, with its row and column.
+    /// The first problem, with its line and column.
     pub fn from_reader<R: Read>(reader: R) -> Result<Self> {
-        let mut rdr = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(reader);
-        let header = rdr
-            .headers()
-            .map_err(|e| Error::Record(e.to_string()))?
-            .clone();
-        if header.get(0) != Some("time") {
+        let table = mil_numerics::record::parse(reader, "record")
+            .map_err(|e| Error::Record(e.to_string()))?;
+        Self::from_table(table)
+    }
+
+    /// The record a table holds (see [`Record::from_reader`]).
+    fn from_table(table: mil_numerics::record::Table) -> Result<Self> {
+        let mil_numerics::record::Table {
+            mut names,
+            units,
+            mut columns,
+        } = table;
+        if names.first().map(String::as_str) != Some("time") {
             return Err(Error::Record(format!(
                 "the first column must be `time`, got {:?}",
-                header.get(0).unwrap_or("")
+                names.first().map_or("", String::as_str)
             )));
         }
-        let names: Vec<String> = header.iter().skip(1).map(str::to_string).collect();
+        if let Some(Some(unit)) = units.first() {
+            if unit != "s" {
+                return Err(Error::Record(format!(
+                    "column `time` is in {unit:?}: give it in s (seconds)"
+                )));
+            }
+        }
+        let time = columns.remove(0);
+        names.remove(0);
         if names.is_empty() {
             return Err(Error::Record("no columns after `time`".into()));
-        }
-        for (i, n) in names.iter().enumerate() {
-            if n.is_empty() || names[..i].contains(n) || n == "time" {
-                return Err(Error::Record(format!(
-                    "column {}: name {n:?} empty or repeated",
-                    i + 2
-                )));
-            }
-        }
-        let mut time = Vec::new();
-        let mut columns = vec![Vec::new(); names.len()];
-        for (row, rec) in rdr.records().enumerate() {
-            let rec = rec.map_err(|e| Error::Record(e.to_string()))?;
-            let line = row + 2;
-            if rec.len() != names.len() + 1 {
-                return Err(Error::Record(format!(
-                    "line {line}: {} fields, header has {}",
-                    rec.len(),
-                    names.len() + 1
-                )));
-            }
-            for (j, field) in rec.iter().enumerate() {
-                let v: f64 = field.parse().map_err(|_| {
-                    Error::Record(format!(
-                        "line {line}, column {}: {field:?} is not a number",
-                        j + 1
-                    ))
-                })?;
-                if !v.is_finite() {
-                    return Err(Error::Record(format!(
-                        "line {line}, column {}: {v} is not finite",
-                        j + 1
-                    )));
-                }
-                if j == 0 {
-                    time.push(v);
-                } else {
-                    columns[j - 1].push(v);
-                }
-            }
         }
         Self::new(&time, names, columns)
     }
@@ -123,20 +97,9 @@ impl Record {
                 names[j]
             )));
         }
-        let dt = (time[n - 1] - time[0]) / (n - 1) as f64;
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(Error::Record("time must increase".into()));
-        }
-        for (i, w) in time.windows(2).enumerate() {
-            let step = w[1] - w[0];
-            if (step - dt).abs() > STEP_TOLERANCE * dt {
-                return Err(Error::Record(format!(
-                    "time step {step} s at sample {} differs from the mean step {dt} s by more than {} %",
-                    i + 1,
-                    STEP_TOLERANCE * 100.0
-                )));
-            }
-        }
+        let base = mil_numerics::record::uniform_time_base(time)
+            .map_err(|(k, why)| Error::Record(format!("sample {k} (from 0): {why}")))?;
+        let dt = base.dt;
         Ok(Self {
             dt,
             t0: time[0],
@@ -290,6 +253,26 @@ mod tests {
         assert!((r.dt - 0.001).abs() < 1e-15);
         assert_eq!(r.column("y").unwrap()[3], 6.0);
         assert!(r.column("z").unwrap_err().to_string().contains("u, y"));
+    }
+
+    /// A record as a DAQ exports it: metadata lines, `;` separators, decimal commas, units
+    /// in the header, timing jitter and times rounded to 5 decimals.
+    #[test]
+    fn a_daq_export_reads_and_a_time_in_ms_is_refused() {
+        let mut text = String::from("# rig 3, channel map v2\ntime [s];force [N];x [m]\n");
+        for i in 0..40 {
+            let jitter = if i % 2 == 0 { 0.12 } else { -0.08 };
+            let t = ((i as f64 + jitter) * 0.001 * 1e5).round() / 1e5;
+            text.push_str(&format!("{};{},5;0,00{}\n", t, i, i % 7).replace('.', ","));
+        }
+        let r = csv(&text).unwrap();
+        assert_eq!(r.names, ["force", "x"]);
+        assert_eq!(r.len(), 40);
+        assert!((r.dt - 0.001).abs() < 1e-5, "{}", r.dt);
+        assert_eq!(r.column("force").unwrap()[3], 3.5);
+        let ms = text.replace("time [s]", "time [ms]");
+        let e = csv(&ms).unwrap_err().to_string();
+        assert!(e.contains("\"ms\"") && e.contains("give it in s"), "{e}");
     }
 
     #[test]

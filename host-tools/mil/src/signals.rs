@@ -214,60 +214,61 @@ fn highpass(x: &mut [f64], fc: f64, dt: f64) {
     }
 }
 
-/// Reads a recorded road profile; checks the header, a uniform `time` column matching the
-/// sample period (within 1e-6 relative), and finite values. Shorter records are an error.
+/// The table in `path` (the workspace's one reader, `mil_numerics::record`) with `time`
+/// first (in s, where the header gives a unit); `what` names the file in errors.
+fn read_timed_table(path: &Path, what: &str) -> Result<mil_numerics::record::Table> {
+    let table = mil_numerics::record::read(path).with_context(|| format!("cannot read {what}"))?;
+    let name = path.display();
+    if table.names.first().map(String::as_str) != Some("time") {
+        bail!("{name}: the first column must be `time` (s)");
+    }
+    if let Some(Some(unit)) = table.units.first() {
+        if unit != "s" {
+            bail!("{name}: column `time` is in {unit:?}: give it in s (seconds)");
+        }
+    }
+    Ok(table)
+}
+
+/// Reads a recorded road profile: `time` (s) and 1 or `channels` road columns (m), a uniform
+/// time base (`mil_numerics::record::uniform_time_base`: timing jitter up to 0.4 of a
+/// sample passes) starting at 0 with the run's sample period (within 1 %), finite values.
+/// Shorter records are an error; rows beyond the run's `n` are ignored.
 pub fn read_profile(path: &Path, n: usize, dt: f64, channels: usize) -> Result<Vec<Vec<f64>>> {
-    let mut reader = csv::Reader::from_path(path)
-        .with_context(|| format!("cannot open road profile {}", path.display()))?;
-    let header = reader.headers()?.clone();
-    if header.get(0).map(str::trim) != Some("time") {
-        bail!("{}: the first column must be `time`", path.display());
-    }
-    let columns = header.len() - 1;
+    let table = read_timed_table(path, "road profile")?;
+    let name = path.display();
+    let columns = table.names.len() - 1;
     if columns != 1 && columns != channels {
+        bail!("{name}: expected 1 or {channels} road columns, found {columns}");
+    }
+    let rows = table.rows();
+    if rows < n {
+        bail!("{name}: {rows} samples, the run needs {n}");
+    }
+    let time = &table.columns[0];
+    let base = mil_numerics::record::uniform_time_base(time)
+        .map_err(|(k, why)| anyhow::anyhow!("{name}: line {}: {why}", k + 2))?;
+    // 1 %: the interval of a short record with timing jitter is only known to about
+    // jitter / samples; a wrong rate is off by far more.
+    if (base.dt - dt).abs() > 1e-2 * dt {
         bail!(
-            "{}: expected 1 or {channels} road columns, found {columns}",
-            path.display()
+            "{name}: sample interval {} s, the run's is {dt} s (uniform at the run's sample rate)",
+            base.dt
         );
     }
-    let mut out = Vec::with_capacity(n);
-    for (row, record) in reader.records().enumerate() {
-        if out.len() == n {
-            break;
-        }
-        let record = record?;
-        let values: Vec<f64> = record
-            .iter()
-            .map(|v| v.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .with_context(|| format!("{}: row {} is not numeric", path.display(), row + 2))?;
-        let t = values.first().copied().unwrap_or(f64::NAN);
-        let expected = row as f64 * dt;
-        if (t - expected).abs() > 1e-6 * expected.max(1.0) + 1e-9 {
-            bail!(
-                "{}: row {}: time {t} s, expected {expected} s (uniform at the run's sample rate)",
-                path.display(),
-                row + 2
-            );
-        }
-        let road: Vec<f64> = values.get(1..).unwrap_or(&[]).to_vec();
-        if road.iter().any(|v| !v.is_finite()) {
-            bail!("{}: row {}: non-finite value", path.display(), row + 2);
-        }
-        out.push(if road.len() == 1 {
-            vec![road[0]; channels]
-        } else {
-            road
-        });
+    if base.t0.abs() > mil_numerics::record::JITTER_TOLERANCE * dt {
+        bail!("{name}: time starts at {} s, not 0", base.t0);
     }
-    if out.len() < n {
-        bail!(
-            "{}: {} samples, the run needs {n}",
-            path.display(),
-            out.len()
-        );
-    }
-    Ok(out)
+    Ok((0..n)
+        .map(|k| {
+            let road: Vec<f64> = table.columns[1..].iter().map(|c| c[k]).collect();
+            if road.len() == 1 {
+                vec![road[0]; channels]
+            } else {
+                road
+            }
+        })
+        .collect())
 }
 
 /// Largest vehicle speed (m/s) a run may ask for: model-core's aero input limit
@@ -439,50 +440,38 @@ pub fn read_speed_profile(
     column: Option<&str>,
     end_s: f64,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    let mut reader = csv::Reader::from_path(path)
-        .with_context(|| format!("cannot open speed profile {}", path.display()))?;
-    let header = reader.headers()?.clone();
+    let table = read_timed_table(path, "speed profile")?;
     let name = path.display();
-    if header.get(0).map(str::trim) != Some("time") {
-        bail!("{name}: the first column must be `time` (s)");
-    }
     let index = match column {
-        Some(c) => header
-            .iter()
-            .skip(1)
-            .position(|h| h.trim() == c)
-            .map(|i| i + 1)
+        Some(c) => table
+            .index(c)
+            .filter(|&i| i > 0)
             .with_context(|| format!("{name}: no column {c:?} (speed.column)"))?,
-        None if header.len() == 2 => 1,
+        None if table.names.len() == 2 => 1,
         None => bail!(
             "{name}: {} columns after `time`: name the speed column with speed.column",
-            header.len().saturating_sub(1)
+            table.names.len().saturating_sub(1)
         ),
     };
-    let (mut time, mut speed) = (Vec::new(), Vec::<f64>::new());
-    for (row, record) in reader.records().enumerate() {
-        let line = row + 2;
-        let record = record.with_context(|| format!("{name}: row {line}"))?;
-        let value = |i: usize, what: &str| -> Result<f64> {
-            let text = record.get(i).unwrap_or("").trim();
-            text.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .with_context(|| {
-                    format!("{name}: row {line}: {what} {text:?} is not a finite number")
-                })
-        };
-        let (t, v) = (value(0, "time")?, value(index, "speed")?);
-        if let Some(last) = time.last() {
-            if t <= *last {
-                bail!("{name}: row {line}: time {t} s does not increase (previous row {last} s)");
-            }
+    let time = table.columns[0].clone();
+    let speed = table.columns[index].clone();
+    for (k, (w, &v)) in time.windows(2).zip(speed.iter().skip(1)).enumerate() {
+        let line = k + 3;
+        if w[1] <= w[0] {
+            bail!(
+                "{name}: line {line}: time {} s does not increase (previous row {} s)",
+                w[1],
+                w[0]
+            );
         }
         if !(0.0..=MAX_SPEED_M_PER_S).contains(&v) {
-            bail!("{name}: row {line}: speed {v} m/s is outside [0, {MAX_SPEED_M_PER_S}] m/s");
+            bail!("{name}: line {line}: speed {v} m/s is outside [0, {MAX_SPEED_M_PER_S}] m/s");
         }
-        time.push(t);
-        speed.push(v);
+    }
+    if let Some(&v) = speed.first() {
+        if !(0.0..=MAX_SPEED_M_PER_S).contains(&v) {
+            bail!("{name}: line 2: speed {v} m/s is outside [0, {MAX_SPEED_M_PER_S}] m/s");
+        }
     }
     match (time.first(), time.last()) {
         (Some(first), Some(last)) if *first <= 1e-9 && *last >= end_s - 1e-9 => {}
@@ -556,5 +545,47 @@ mod tests {
             e.contains("speed.speed_m_per_s must be in [0, 150] m/s"),
             "{e}"
         );
+    }
+
+    /// Road profiles as DAQ exports write them read; a wrong rate, a dropped sample and a time
+    /// column in ms are refused, naming the file and the line or the unit.
+    #[test]
+    fn road_profiles_from_daq_exports() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, text: &str| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, text).unwrap();
+            p
+        };
+        let dt = 5e-4;
+        let mut daq = String::from("# exported 2026-11-29\ntime [s];road [m]\n");
+        for k in 0..200 {
+            let jitter = if k % 2 == 0 { 0.1 } else { -0.1 };
+            let t = (k as f64 + jitter) * dt;
+            daq.push_str(&format!("{t:.6};{}\n", 0.001 * k as f64).replace('.', ","));
+        }
+        let road = read_profile(&write("daq.csv", &daq), 150, dt, 2).unwrap();
+        assert_eq!(road.len(), 150);
+        assert_eq!(road[10], vec![0.01, 0.01]);
+        let e = read_profile(&write("daq.csv", &daq), 150, 4e-4, 2).unwrap_err();
+        assert!(format!("{e:#}").contains("sample interval"), "{e:#}");
+        let mut dropped = String::from("time,road\n");
+        for k in (0..200).filter(|&k| k != 100) {
+            dropped.push_str(&format!("{},0\n", k as f64 * dt));
+        }
+        let e = format!(
+            "{:#}",
+            read_profile(&write("gap.csv", &dropped), 150, dt, 1).unwrap_err()
+        );
+        assert!(
+            e.contains("gap.csv: line") && e.contains("dropped or repeated"),
+            "{e}"
+        );
+        let ms = daq.replace("time [s]", "time [ms]");
+        let e = format!(
+            "{:#}",
+            read_profile(&write("ms.csv", &ms), 150, dt, 1).unwrap_err()
+        );
+        assert!(e.contains("\"ms\""), "{e}");
     }
 }

@@ -225,7 +225,7 @@ fn mil_run_follows_the_speed() {
     assert!(text.starts_with("time,road_0,road_1,speed,demand_0,demand_1,"));
 }
 
-/// Bad speed inputs are refused before running, with the file, row and reason.
+/// Bad speed inputs are refused before running, with the file, line (and column) and reason.
 #[test]
 fn bad_speed_inputs_are_refused_with_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
@@ -241,23 +241,23 @@ fn bad_speed_inputs_are_refused_with_clear_errors() {
     let cases = [
         (
             "time,speed\n0,50\n0.5,50\n0.5,51\n1,50\n",
-            "row 4: time 0.5 s does not increase",
+            "line 4: time 0.5 s does not increase",
         ),
         (
             "time,speed\n0,50\n0.5,151\n1,50\n",
-            "row 3: speed 151 m/s is outside [0, 150]",
+            "line 3: speed 151 m/s is outside [0, 150]",
         ),
         (
             "time,speed\n0,50\n0.5,-1\n1,50\n",
-            "row 3: speed -1 m/s is outside",
+            "line 3: speed -1 m/s is outside",
         ),
         (
             "time,speed\n0,50\n0.5,NaN\n1,50\n",
-            "row 3: speed \"NaN\" is not a finite number",
+            "line 3, column 2: NaN is not finite",
         ),
         (
             "time,speed\n0,50\n0.5,fast\n1,50\n",
-            "row 3: speed \"fast\" is not a finite number",
+            "line 3, column 2: \"fast\" is not a number",
         ),
         (
             "time,speed\n0,50\n0.5,50\n",
@@ -284,7 +284,7 @@ fn bad_speed_inputs_are_refused_with_clear_errors() {
     );
     assert!(e.contains("no column \"v\""), "{e}");
     let e = error("", "[speed]\nkind = \"csv\"\npath = \"missing.csv\"\n");
-    assert!(e.contains("cannot open speed profile"), "{e}");
+    assert!(e.contains("cannot read speed profile"), "{e}");
     let e = error(
         "",
         "[speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 200.0\nat_s = 1.0\n",

@@ -9,6 +9,9 @@
 //! - [`filter`]: Butterworth low-pass sections (bilinear, pre-warped), causal or zero-phase:
 //!   the rig's in-band comparisons, the generated road noise, diagnosis' differentiation
 //!   filters.
+//! - [`record`]: the CSV reader of every record and table (comma, semicolon or tab; units in
+//!   the header; decimal commas; comment lines) and the one time-base rule.
 
 pub mod filter;
+pub mod record;
 pub mod rng;
