@@ -53,6 +53,7 @@ impl Record {
             mut names,
             units,
             mut columns,
+            ..
         } = table;
         if names.first().map(String::as_str) != Some("time") {
             return Err(Error::Record(format!(
@@ -98,7 +99,7 @@ impl Record {
             )));
         }
         let base = mil_numerics::record::uniform_time_base(time)
-            .map_err(|(k, why)| Error::Record(format!("sample {k} (from 0): {why}")))?;
+            .map_err(|e| Error::Record(format!("sample {} (from 0): {}", e.index, e.message)))?;
         let dt = base.dt;
         Ok(Self {
             dt,

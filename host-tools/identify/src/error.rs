@@ -16,16 +16,6 @@ pub enum IdentifyError {
         #[source]
         source: std::io::Error,
     },
-    /// The CSV layer could not parse a file (bad quoting, invalid UTF-8, I/O); the message of
-    /// the CSV error names the line.
-    #[error("{origin}: {source}")]
-    Csv {
-        /// The file (or a description of the stream) involved.
-        origin: String,
-        /// The underlying CSV error.
-        #[source]
-        source: csv::Error,
-    },
     /// A line of a CSV file (frequency-response table or time-series record) is invalid.
     #[error("{origin}: line {line}: {message}")]
     Format {
@@ -143,13 +133,6 @@ pub enum IdentifyError {
 impl IdentifyError {
     pub(crate) fn io(origin: &str, source: std::io::Error) -> Self {
         Self::Io {
-            origin: origin.to_string(),
-            source,
-        }
-    }
-
-    pub(crate) fn csv(origin: &str, source: csv::Error) -> Self {
-        Self::Csv {
             origin: origin.to_string(),
             source,
         }

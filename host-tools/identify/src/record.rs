@@ -4,7 +4,6 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::error::{path_origin, IdentifyError, Result};
-use crate::table::{csv_with_header, parse_field, record_line};
 
 /// The name used in error messages for a record read from a stream.
 const STREAM_ORIGIN: &str = "time-series record";
@@ -13,12 +12,12 @@ const STREAM_ORIGIN: &str = "time-series record";
 /// rate (Hz) and the two named columns, in file order.
 ///
 /// The file has a header; the first column is `time` (s), uniformly sampled; the other
-/// columns are named (e.g. `out/run.csv` of the `mil` tool). Only `time` and the two requested
-/// columns are parsed; they must hold finite numbers. The sample period is fitted from the
-/// first and last time, `dt = (t_last - t_first) / (rows - 1)`; every time must lie within
-/// `1e-6 · max(|t|, 1 s) + 1e-9 s` of `t_first + i·dt` (this allows times written with
-/// microsecond resolution), and every step must lie between 1/2 and 3/2 of the median step
-/// (so a dropped or repeated sample is reported on its own line, anywhere in the file).
+/// columns are named (e.g. `out/run.csv` of the `mil` tool). The workspace's one reader
+/// (`mil_numerics::record`: comma, semicolon or tab; units in the header; decimal commas;
+/// `#` comment lines) and time-base rule: every step within 0.2–1.8 of the median step (a
+/// dropped or repeated sample is reported on its own line) and every time within 0.4 sample
+/// intervals of the least-squares uniform grid (timing jitter and rounded times pass). The
+/// sample period is `(t_last - t_first) / (rows - 1)`.
 ///
 /// Errors: I/O, a missing column (the message lists the columns there are), a non-numeric
 /// value, fewer than 2 rows, a non-uniform or non-increasing time; each names the line.
@@ -52,53 +51,39 @@ fn parse_record<R: Read>(
     input_column: &str,
     output_column: &str,
 ) -> Result<(f64, Vec<f64>, Vec<f64>)> {
-    let (mut rdr, header) = csv_with_header(reader, origin)?;
-    if header.get(0) != Some("time") {
+    let table = mil_numerics::record::parse(reader, origin).map_err(|e| {
+        IdentifyError::format(origin, e.line.unwrap_or(1) as u64, e.message.clone())
+    })?;
+    if table.names.first().map(String::as_str) != Some("time") {
         return Err(IdentifyError::format(
             origin,
             1,
             format!(
                 "the first column must be `time` (s); the header is `{}`",
-                header.iter().collect::<Vec<_>>().join(",")
+                table.names.join(",")
             ),
         ));
     }
+    if let Some(Some(unit)) = table.units.first() {
+        if unit != "s" {
+            return Err(IdentifyError::format(
+                origin,
+                1,
+                format!("column `time` is in {unit:?}: give it in s (seconds)"),
+            ));
+        }
+    }
     let find = |name: &str| {
-        header
-            .iter()
-            .position(|h| h == name)
+        table
+            .index(name)
             .ok_or_else(|| IdentifyError::MissingColumn {
                 origin: origin.to_string(),
                 column: name.to_string(),
-                available: header.iter().collect::<Vec<_>>().join(", "),
+                available: table.names.join(", "),
             })
     };
     let (ci, co) = (find(input_column)?, find(output_column)?);
-
-    let mut time = Vec::new();
-    let mut lines = Vec::new();
-    let mut input = Vec::new();
-    let mut output = Vec::new();
-    for (row, record) in rdr.records().enumerate() {
-        let record = record.map_err(|e| IdentifyError::csv(origin, e))?;
-        let line = record_line(&record, row as u64 + 2);
-        if record.len() != header.len() {
-            return Err(IdentifyError::format(
-                origin,
-                line,
-                format!(
-                    "{} fields, but the header has {} columns",
-                    record.len(),
-                    header.len()
-                ),
-            ));
-        }
-        time.push(parse_field(origin, line, "time", &record[0])?);
-        input.push(parse_field(origin, line, input_column, &record[ci])?);
-        output.push(parse_field(origin, line, output_column, &record[co])?);
-        lines.push(line);
-    }
-    let n = time.len();
+    let n = table.rows();
     if n < 2 {
         return Err(IdentifyError::format(
             origin,
@@ -106,41 +91,18 @@ fn parse_record<R: Read>(
             format!("the record ends after {n} data row(s); at least 2 are needed"),
         ));
     }
-    // First the steps against the median step: a dropped, repeated or reversed sample is
-    // reported on its own line (the fitted period below would blame an earlier line).
-    let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
-    steps.sort_by(f64::total_cmp);
-    let typical = steps[steps.len() / 2];
-    if !(typical.is_finite() && typical > 0.0) {
-        return Err(IdentifyError::format(
-            origin,
-            lines[1],
-            "the `time` column does not increase",
-        ));
-    }
-    for i in 1..n {
-        let step = time[i] - time[i - 1];
-        if !(step > 0.5 * typical && step < 1.5 * typical) {
-            return Err(IdentifyError::NonUniformTime {
-                origin: origin.to_string(),
-                line: lines[i],
-                time_s: time[i],
-                expected_s: time[i - 1] + typical,
-            });
+    // The workspace's one time-base rule: a dropped, repeated or reversed sample is
+    // reported on its own line; timing jitter up to 0.4 of a sample passes.
+    let base = mil_numerics::record::uniform_time_base(&table.columns[0]).map_err(|e| {
+        IdentifyError::NonUniformTime {
+            origin: origin.to_string(),
+            line: table.lines.get(e.index).copied().unwrap_or(1) as u64,
+            time_s: e.time_s,
+            expected_s: e.expected_s,
         }
-    }
-    // Then every time against the period fitted from the ends.
-    let dt = (time[n - 1] - time[0]) / (n - 1) as f64;
-    for i in 1..n {
-        let expected = time[0] + i as f64 * dt;
-        if (time[i] - expected).abs() > 1e-6 * expected.abs().max(1.0) + 1e-9 {
-            return Err(IdentifyError::NonUniformTime {
-                origin: origin.to_string(),
-                line: lines[i],
-                time_s: time[i],
-                expected_s: expected,
-            });
-        }
-    }
-    Ok((1.0 / dt, input, output))
+    })?;
+    let mut columns = table.columns;
+    let output = std::mem::take(&mut columns[co]);
+    let input = std::mem::take(&mut columns[ci]);
+    Ok((1.0 / base.dt, input, output))
 }

@@ -319,51 +319,13 @@ pub(crate) fn format_f64(x: f64) -> String {
     }
 }
 
-/// Parses one numeric field of a CSV line; errors name the line and the column.
-pub(crate) fn parse_field(origin: &str, line: u64, column: &str, text: &str) -> Result<f64> {
-    let value: f64 = text.parse().map_err(|_| {
-        IdentifyError::format(
-            origin,
-            line,
-            format!("column `{column}`: `{text}` is not a number"),
-        )
-    })?;
-    if !value.is_finite() {
-        return Err(IdentifyError::format(
-            origin,
-            line,
-            format!("column `{column}`: {value} is not finite"),
-        ));
-    }
-    Ok(value)
-}
-
-/// The 1-based line of a record (the header is line 1).
-pub(crate) fn record_line(record: &csv::StringRecord, fallback: u64) -> u64 {
-    record.position().map_or(fallback, csv::Position::line)
-}
-
-/// A CSV reader over `reader` (header row, trimmed fields, rows of any length: checked by
-/// the caller line by line) and its header.
-pub(crate) fn csv_with_header<R: Read>(
-    reader: R,
-    origin: &str,
-) -> Result<(csv::Reader<R>, csv::StringRecord)> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .from_reader(reader);
-    let header = rdr
-        .headers()
-        .map_err(|e| IdentifyError::csv(origin, e))?
-        .clone();
-    Ok((rdr, header))
-}
-
 fn parse_csv<R: Read>(reader: R, origin: &str) -> Result<FrfTable> {
-    let (mut rdr, header) = csv_with_header(reader, origin)?;
-    let names: Vec<&str> = header.iter().collect();
+    // The workspace's one reader (`mil_numerics::record`): separators, decimal commas,
+    // comment lines and the errors' file, line and column as for every record.
+    let table = mil_numerics::record::parse(reader, origin).map_err(|e| {
+        IdentifyError::format(origin, e.line.unwrap_or(1) as u64, e.message.clone())
+    })?;
+    let names: Vec<&str> = table.names.iter().map(String::as_str).collect();
     let columns = names.len();
     if !(columns == 3 || columns == 4) || names[..] != CSV_COLUMNS[..columns] {
         return Err(IdentifyError::format(
@@ -378,22 +340,11 @@ fn parse_csv<R: Read>(reader: R, origin: &str) -> Result<FrfTable> {
     }
     let mut points = Vec::new();
     let mut previous: Option<(f64, u64)> = None;
-    for (row, record) in rdr.records().enumerate() {
-        let record = record.map_err(|e| IdentifyError::csv(origin, e))?;
-        let line = record_line(&record, row as u64 + 2);
-        if record.len() != columns {
-            return Err(IdentifyError::format(
-                origin,
-                line,
-                format!(
-                    "{} fields, but the header has {columns} columns",
-                    record.len()
-                ),
-            ));
-        }
+    for (row, &line) in table.lines.iter().enumerate() {
+        let line = line as u64;
         let mut values = [0.0; 4];
-        for (c, text) in record.iter().enumerate() {
-            values[c] = parse_field(origin, line, CSV_COLUMNS[c], text)?;
+        for (c, v) in values.iter_mut().zip(&table.columns) {
+            *c = v[row];
         }
         let [frequency_hz, magnitude, phase_deg, coherence] = values;
         if frequency_hz <= 0.0 {

@@ -246,8 +246,10 @@ pub fn read_profile(path: &Path, n: usize, dt: f64, channels: usize) -> Result<V
         bail!("{name}: {rows} samples, the run needs {n}");
     }
     let time = &table.columns[0];
-    let base = mil_numerics::record::uniform_time_base(time)
-        .map_err(|(k, why)| anyhow::anyhow!("{name}: line {}: {why}", k + 2))?;
+    let base = mil_numerics::record::uniform_time_base(time).map_err(|e| {
+        let line = table.lines.get(e.index).copied().unwrap_or(0);
+        anyhow::anyhow!("{name}: line {line}: {}", e.message)
+    })?;
     // 1 %: the interval of a short record with timing jitter is only known to about
     // jitter / samples; a wrong rate is off by far more.
     if (base.dt - dt).abs() > 1e-2 * dt {

@@ -253,11 +253,11 @@ fn bad_speed_inputs_are_refused_with_clear_errors() {
         ),
         (
             "time,speed\n0,50\n0.5,NaN\n1,50\n",
-            "line 3, column 2: NaN is not finite",
+            "line 3, column 2: column `speed`: NaN is not finite",
         ),
         (
             "time,speed\n0,50\n0.5,fast\n1,50\n",
-            "line 3, column 2: \"fast\" is not a number",
+            "line 3, column 2: column `speed`: `fast` is not a number",
         ),
         (
             "time,speed\n0,50\n0.5,50\n",

@@ -62,6 +62,8 @@ pub struct Table {
     pub units: Vec<Option<String>>,
     /// The columns, one value per row.
     pub columns: Vec<Vec<f64>>,
+    /// The file line of each row (1-based; comment lines counted).
+    pub lines: Vec<usize>,
 }
 
 impl Table {
@@ -158,6 +160,7 @@ pub fn parse<R: Read>(mut reader: R, origin: &str) -> Result<Table, RecordError>
         }
     }
     let mut columns = vec![Vec::new(); names.len()];
+    let mut lines = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| err(None, None, e.to_string()))?;
         let line = rec.position().map_or(0, |p| p.line() as usize);
@@ -174,23 +177,30 @@ pub fn parse<R: Read>(mut reader: R, origin: &str) -> Result<Table, RecordError>
             } else {
                 field.parse::<f64>()
             };
+            let column = &names[j];
             let v = parsed.map_err(|_| {
                 err(
                     Some(line),
                     Some(j + 1),
-                    format!("{field:?} is not a number"),
+                    format!("column `{column}`: `{field}` is not a number"),
                 )
             })?;
             if !v.is_finite() {
-                return Err(err(Some(line), Some(j + 1), format!("{v} is not finite")));
+                return Err(err(
+                    Some(line),
+                    Some(j + 1),
+                    format!("column `{column}`: {v} is not finite"),
+                ));
             }
             columns[j].push(v);
         }
+        lines.push(line);
     }
     Ok(Table {
         names,
         units,
         columns,
+        lines,
     })
 }
 
@@ -203,29 +213,84 @@ pub struct TimeBase {
     pub dt: f64,
 }
 
-/// The uniform time base of sample times `time` (see the module documentation), or the
-/// problem and the index of the sample it is at.
+/// Why sample times are not a uniform time base, and where.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimeBaseError {
+    /// The sample (0-based) the problem is at.
+    pub index: usize,
+    /// Its time (s).
+    pub time_s: f64,
+    /// The time a uniform time base would have there (s).
+    pub expected_s: f64,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for TimeBaseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// Largest and smallest step, in median steps, that is not a dropped or repeated sample.
+const STEP_RANGE: (f64, f64) = (0.2, 1.8);
+
+/// The uniform time base of sample times `time` (see the module documentation), or where
+/// and why it is not one: first every step against the median step (so a dropped, repeated
+/// or reversed sample is reported at its own sample), then every time against the
+/// least-squares uniform grid (so that drift beyond [`JITTER_TOLERANCE`] is caught too).
 ///
 /// # Errors
-/// Fewer than 2 samples, times that do not increase, or a sample farther than
-/// [`JITTER_TOLERANCE`] sample intervals from the uniform grid.
-pub fn uniform_time_base(time: &[f64]) -> Result<TimeBase, (usize, String)> {
+/// Fewer than 2 samples, times that do not increase, a step outside 0.2–1.8 median steps, or
+/// a sample farther than [`JITTER_TOLERANCE`] sample intervals from the uniform grid.
+pub fn uniform_time_base(time: &[f64]) -> Result<TimeBase, TimeBaseError> {
     let n = time.len();
+    let fail = |index: usize, expected_s: f64, message: String| TimeBaseError {
+        index,
+        time_s: time.get(index).copied().unwrap_or(f64::NAN),
+        expected_s,
+        message,
+    };
     if n < 2 {
-        return Err((0, format!("{n} samples: a time base needs at least 2")));
+        return Err(fail(
+            0,
+            f64::NAN,
+            format!("{n} samples: a time base needs at least 2"),
+        ));
     }
-    let dt = (time[n - 1] - time[0]) / (n - 1) as f64;
-    if !(dt.is_finite() && dt > 0.0) {
-        return Err((n - 1, "time must increase".into()));
+    let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    if !(median.is_finite() && median > 0.0) {
+        return Err(fail(
+            1,
+            time[0],
+            "the `time` column does not increase".into(),
+        ));
     }
     for (k, w) in time.windows(2).enumerate() {
-        if w[1] <= w[0] {
-            return Err((
+        let step = w[1] - w[0];
+        if step <= 0.0 {
+            return Err(fail(
                 k + 1,
+                w[0] + median,
                 format!("time {} s does not increase (previous {} s)", w[1], w[0]),
             ));
         }
+        if step > STEP_RANGE.1 * median || step < STEP_RANGE.0 * median {
+            return Err(fail(
+                k + 1,
+                w[0] + median,
+                format!(
+                    "time {} s, expected about {} s: a step of {:.2} sample intervals (a dropped or repeated sample?)",
+                    w[1],
+                    w[0] + median,
+                    step / median
+                ),
+            ));
+        }
     }
+    let dt = (time[n - 1] - time[0]) / (n - 1) as f64;
     // The grid the samples are checked against: the least-squares line through (k, t_k),
     // so that jitter of the first or last sample does not tilt it.
     let nf = n as f64;
@@ -239,10 +304,12 @@ pub fn uniform_time_base(time: &[f64]) -> Result<TimeBase, (usize, String)> {
     }
     let slope = skt / skk;
     for (k, &t) in time.iter().enumerate() {
-        let off = (t - t_mean - (k as f64 - k_mean) * slope) / slope;
+        let expected = t_mean + (k as f64 - k_mean) * slope;
+        let off = (t - expected) / slope;
         if off.abs() > JITTER_TOLERANCE {
-            return Err((
+            return Err(fail(
                 k,
+                expected,
                 format!(
                     "time {t} s is {off:+.2} sample intervals off the uniform {slope} s grid (a dropped or repeated sample? at most ±{JITTER_TOLERANCE} is timing jitter)"
                 ),
@@ -308,16 +375,22 @@ mod tests {
             .collect();
         let base = uniform_time_base(&jittered).unwrap();
         assert!((base.dt - dt).abs() < 1e-6, "{base:?}");
-        // A dropped sample anywhere: at least half a sample off somewhere.
+        // A dropped sample anywhere: reported at the sample after the gap.
         for gap in [1, 10, 250, 500, 750, 990, 998] {
             let mut dropped: Vec<f64> = (0..1000).map(|k| k as f64 * dt).collect();
             dropped.remove(gap);
-            let (at, why) = uniform_time_base(&dropped).unwrap_err();
+            let e = uniform_time_base(&dropped).unwrap_err();
             assert!(
-                why.contains("dropped or repeated"),
-                "gap {gap}: {at}: {why}"
+                e.message.contains("dropped or repeated"),
+                "gap {gap}: {e:?}"
             );
+            assert_eq!(e.index, gap, "{e:?}");
         }
+        // A clock whose rate changes by 1 % over the record: samples drift off the grid.
+        let drifting: Vec<f64> = (0..1000)
+            .map(|k| k as f64 * dt * (1.0 + 1e-5 * (k as f64 - 500.0).abs()))
+            .collect();
+        assert!(uniform_time_base(&drifting).is_err());
         // Repeated and decreasing times.
         assert!(uniform_time_base(&[0.0, 0.001, 0.001, 0.002]).is_err());
         assert!(uniform_time_base(&[0.0, 0.002, 0.001, 0.003]).is_err());

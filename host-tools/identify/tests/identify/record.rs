@@ -96,10 +96,13 @@ fn record_errors_name_the_problem() {
     );
     assert!(e.to_string().contains("uniform"), "{e}");
 
-    // Jitter of 1e-5 s at 1 kHz (1 % of a sample, far above 1e-6 relative).
-    let e = read("time,u,y\n0,1,2\n0.00101,1,2\n0.002,1,2\n").unwrap_err();
+    // Timing jitter of a fraction of a sample passes (the workspace's one time-base rule);
+    // a repeated sample does not, on its own line.
+    let (fs, _, _) = read("time,u,y\n0,1,2\n0.00111,1,2\n0.002,1,2\n0.0029,1,2\n").unwrap();
+    assert!((fs - 1000.0 / 0.9667).abs() < 2.0, "{fs}");
+    let e = read("time,u,y\n0,1,2\n0.001,1,2\n0.00101,1,2\n0.002,1,2\n").unwrap_err();
     assert!(
-        matches!(e, IdentifyError::NonUniformTime { line: 3, .. }),
+        matches!(e, IdentifyError::NonUniformTime { line: 4, .. }),
         "{e}"
     );
 
