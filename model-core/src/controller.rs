@@ -450,7 +450,8 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
                 self.enter_fault(fault::INVALID_INPUT);
             }
         }
-        if !running {
+        if !running && self.settling {
+            // Out of Running a fade has nothing to carry (a start restarts from rest).
             self.blend = false;
             self.fade = [Fade::default(); CH];
         }

@@ -797,7 +797,6 @@ pub fn measurement_address() -> u32 {
 /// Stores the signals of the step `app` has just made into [`MEASUREMENT`] (call it after
 /// the demand frame is queued: it never delays the demand).
 pub fn record_step(app: &Application) {
-    store_u32(meas::CAL_SOURCE, app.calibration_source() as u32);
     let input = app.input();
     let status = app.status();
     store_f32(

@@ -148,8 +148,8 @@ mod app {
             Ok(app) => app,
             Err(_) => crate::fatal::stop(format_args!("default parameters rejected")),
         };
-        calibration::mirror_application(&app);
-        // The stored calibration, if one passes its checks; else the build's defaults.
+        // The stored calibration, if one passes its checks; else the build's defaults (the
+        // working page then mirrors what runs).
         let Some(mut store) = Store::new(hw.store_flash, port::STORE_RANGE) else {
             crate::fatal::stop(format_args!("calibration store range refused"));
         };
@@ -730,8 +730,10 @@ mod app {
                     // switch the page or lock the session in between.
                     let (page, unlocked) = slave.lock(|s| {
                         s.as_ref().map_or((mil_xcp::Page::Working, false), |s| {
-                            let cal = mil_xcp::protocol::resource::CAL_PAG;
-                            (s.ecu_page(), s.connected() && s.protection() & cal == 0)
+                            (
+                                s.ecu_page(),
+                                s.unlocked(mil_xcp::protocol::resource::CAL_PAG),
+                            )
                         })
                     });
                     mil_firmware::xcp::Target::with_page(Locked(&mut app), page)

@@ -9,7 +9,7 @@
 //! layout's fingerprint ([`layout_id`]: a page stored by a firmware with other slots is not
 //! read as this one's) and a CRC-32 of its own.
 //!
-//! At boot ([`Store::load`]) the board runs the stored page when it passes the format,
+//! At boot ([`boot`]) the board runs the stored page when it passes the format,
 //! layout and CRC checks and the same validation as any page ([`calibration::decode_page`]),
 //! else the build's defaults; [`Source`] says which, in the status frame and the
 //! measurement block.
@@ -59,9 +59,10 @@ pub enum Source {
 pub enum Loaded {
     /// Nothing stored.
     Empty,
-    /// A valid stored page.
+    /// A record of this build (format, layout and CRC checked); the page itself is
+    /// validated once, where it is installed ([`boot`]).
     Stored([u32; SLOTS]),
-    /// A stored record that is not a valid page of this build.
+    /// A stored record that is not one of this build.
     Refused(Refusal),
     /// The flash could not be read.
     Unreadable,
@@ -88,8 +89,6 @@ pub enum Refusal {
     Layout,
     /// The record's CRC-32 does not match.
     Crc,
-    /// The page does not validate (CommandAck code of the reason).
-    Invalid(u8),
 }
 
 /// Why a store failed (measurement `calibration_store_error`; 0 means the last store went
@@ -199,16 +198,13 @@ impl<F: NorFlash> Store<F> {
         }
     }
 
-    /// The stored page, checked and validated (see [`Loaded`]).
+    /// The stored record, checked for format, layout and CRC (see [`Loaded`]).
     pub async fn load(&mut self) -> Loaded {
         let mut buffer = [0u8; BUFFER_BYTES];
         match self.map.fetch_item::<&[u8]>(&mut buffer, &KEY).await {
             Ok(None) => Loaded::Empty,
             Ok(Some(record)) => match decode(record) {
-                Ok(words) => match calibration::decode_page(&words) {
-                    Ok(_) => Loaded::Stored(words),
-                    Err(code) => Loaded::Refused(Refusal::Invalid(code)),
-                },
+                Ok(words) => Loaded::Stored(words),
                 Err(why) => Loaded::Refused(why),
             },
             Err(_) => Loaded::Unreadable,
@@ -216,8 +212,9 @@ impl<F: NorFlash> Store<F> {
     }
 }
 
-/// Boot: loads the stored page from `store` and makes `app` run it (the working page then
-/// holds it), or the build's defaults; the source is recorded in `app` (status frame,
+/// Boot: loads the stored page from `store` and makes `app` run it when it validates and
+/// installs ([`crate::application::Application::boot_with`]; the working page then holds
+/// it), or the build's defaults; the source is recorded in `app` (status frame,
 /// measurement `calibration_source`) and returned. Call it before the control step starts.
 pub async fn boot<F: NorFlash>(
     app: &mut crate::application::Application,
@@ -469,6 +466,32 @@ mod tests {
             complete(s.load()),
             Some(Loaded::Stored(page(1.0e5 + 59_000.0)))
         );
+    }
+
+    /// A record of this build whose page does not validate (written by hand past `save`,
+    /// which refuses it) boots the defaults and says the stored page was refused.
+    #[test]
+    fn a_stored_page_that_does_not_validate_boots_the_defaults() {
+        let _turn = test_lock();
+        let mut bad = page(3.0e5);
+        bad[SLOT_WATCHDOG] = 0.5f32.to_bits();
+        let mut map = MapStorage::<u8, _, _>::new(
+            Flash::new(),
+            MapConfig::new(0..4096),
+            Cache::new_uncached(),
+        );
+        let mut buffer = [0u8; BUFFER_BYTES];
+        let record = encode(&bad);
+        complete(map.store_item(&mut buffer, &KEY, &&record[..]))
+            .expect("completes")
+            .expect("stored");
+        let mut s = Store::new(map.destroy().0, 0..4096).expect("range");
+        assert_eq!(complete(s.load()), Some(Loaded::Stored(bad)));
+        let mut app = crate::application::Application::new(256).expect("app");
+        assert_eq!(complete(boot(&mut app, &mut s)), Some(Source::Refused));
+        assert_eq!(app.params(), &default_params());
+        assert_eq!(app.calibration_source(), Source::Refused);
+        crate::calibration::mirror(&default_params(), &DEFAULT_SETTINGS);
     }
 
     /// Issue 19, point 7: a store cut short by a power failure at any of its write or erase

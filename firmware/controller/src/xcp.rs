@@ -285,8 +285,8 @@ impl<A: AppAccess> Target<A> {
             Ok(change) => change,
             Err(c) => return c,
         };
-        let running = self.app.with(|a| a.watchdog().limit);
-        if !cal_unlocked && !safe_without_unlock(slot, value, running) {
+        let watchdog = self.app.with(|a| a.watchdog().limit);
+        if !cal_unlocked && !safe_without_unlock(slot, value, watchdog) {
             return code::LOCKED;
         }
         if self.ecu_page == Page::Reference {
@@ -552,8 +552,7 @@ mod tests {
     impl Session {
         /// Whether the slave holds CAL/PAG unlocked.
         fn cal_unlocked(&self) -> bool {
-            self.slave.connected()
-                && self.slave.protection() & mil_xcp::protocol::resource::CAL_PAG == 0
+            self.slave.unlocked(mil_xcp::protocol::resource::CAL_PAG)
         }
 
         /// A fuzzer's command through the slave: SET_MTA + DOWNLOAD pairs travel as two

@@ -100,6 +100,13 @@ impl Slave {
         self.protected
     }
 
+    /// Whether `resource` (a bit of [`crate::protocol::resource`]) is unlocked: a session is
+    /// connected and seed & key opened it (a disconnect locks every resource again).
+    #[must_use]
+    pub const fn unlocked(&self, resource: u8) -> bool {
+        self.protected & resource == 0
+    }
+
     /// The page the controller should run with (set by SET_CAL_PAGE after the application
     /// accepted it through [`Calibration::select_ecu_page`]).
     #[must_use]

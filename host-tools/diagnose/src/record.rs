@@ -49,25 +49,12 @@ impl Record {
 
     /// The record a table holds (see [`Record::from_reader`]).
     fn from_table(table: mil_numerics::record::Table) -> Result<Self> {
+        table.require_time_first().map_err(Error::Record)?;
         let mil_numerics::record::Table {
             mut names,
-            units,
             mut columns,
             ..
         } = table;
-        if names.first().map(String::as_str) != Some("time") {
-            return Err(Error::Record(format!(
-                "the first column must be `time`, got {:?}",
-                names.first().map_or("", String::as_str)
-            )));
-        }
-        if let Some(Some(unit)) = units.first() {
-            if unit != "s" {
-                return Err(Error::Record(format!(
-                    "column `time` is in {unit:?}: give it in s (seconds)"
-                )));
-            }
-        }
         let time = columns.remove(0);
         names.remove(0);
         if names.is_empty() {

@@ -54,25 +54,9 @@ fn parse_record<R: Read>(
     let table = mil_numerics::record::parse(reader, origin).map_err(|e| {
         IdentifyError::format(origin, e.line.unwrap_or(1) as u64, e.message.clone())
     })?;
-    if table.names.first().map(String::as_str) != Some("time") {
-        return Err(IdentifyError::format(
-            origin,
-            1,
-            format!(
-                "the first column must be `time` (s); the header is `{}`",
-                table.names.join(",")
-            ),
-        ));
-    }
-    if let Some(Some(unit)) = table.units.first() {
-        if unit != "s" {
-            return Err(IdentifyError::format(
-                origin,
-                1,
-                format!("column `time` is in {unit:?}: give it in s (seconds)"),
-            ));
-        }
-    }
+    table
+        .require_time_first()
+        .map_err(|why| IdentifyError::format(origin, 1, why))?;
     let find = |name: &str| {
         table
             .index(name)
@@ -93,14 +77,14 @@ fn parse_record<R: Read>(
     }
     // The workspace's one time-base rule: a dropped, repeated or reversed sample is
     // reported on its own line; timing jitter up to 0.4 of a sample passes.
-    let base = mil_numerics::record::uniform_time_base(&table.columns[0]).map_err(|e| {
-        IdentifyError::NonUniformTime {
+    let base = table
+        .time_base()
+        .map_err(|(line, e)| IdentifyError::NonUniformTime {
             origin: origin.to_string(),
-            line: table.lines.get(e.index).copied().unwrap_or(1) as u64,
+            line: line as u64,
             time_s: e.time_s,
             expected_s: e.expected_s,
-        }
-    })?;
+        })?;
     let mut columns = table.columns;
     let output = std::mem::take(&mut columns[co]);
     let input = std::mem::take(&mut columns[ci]);

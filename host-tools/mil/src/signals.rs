@@ -218,14 +218,8 @@ fn highpass(x: &mut [f64], fc: f64, dt: f64) {
 /// first (in s, where the header gives a unit); `what` names the file in errors.
 fn read_timed_table(path: &Path, what: &str) -> Result<mil_numerics::record::Table> {
     let table = mil_numerics::record::read(path).with_context(|| format!("cannot read {what}"))?;
-    let name = path.display();
-    if table.names.first().map(String::as_str) != Some("time") {
-        bail!("{name}: the first column must be `time` (s)");
-    }
-    if let Some(Some(unit)) = table.units.first() {
-        if unit != "s" {
-            bail!("{name}: column `time` is in {unit:?}: give it in s (seconds)");
-        }
+    if let Err(why) = table.require_time_first() {
+        bail!("{}: {why}", path.display());
     }
     Ok(table)
 }
@@ -245,11 +239,9 @@ pub fn read_profile(path: &Path, n: usize, dt: f64, channels: usize) -> Result<V
     if rows < n {
         bail!("{name}: {rows} samples, the run needs {n}");
     }
-    let time = &table.columns[0];
-    let base = mil_numerics::record::uniform_time_base(time).map_err(|e| {
-        let line = table.lines.get(e.index).copied().unwrap_or(0);
-        anyhow::anyhow!("{name}: line {line}: {}", e.message)
-    })?;
+    let base = table
+        .time_base()
+        .map_err(|(line, e)| anyhow::anyhow!("{name}: line {line}: {e}"))?;
     // 1 %: the interval of a short record with timing jitter is only known to about
     // jitter / samples; a wrong rate is off by far more.
     if (base.dt - dt).abs() > 1e-2 * dt {

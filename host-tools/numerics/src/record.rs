@@ -78,6 +78,36 @@ impl Table {
     pub fn index(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
     }
+
+    /// Checks that the first column is `time` and, where the header gives a unit, that it is
+    /// `s`; the message names what is wrong (header line 1).
+    ///
+    /// # Errors
+    /// Another first column, or `time` in another unit (e.g. `ms`).
+    pub fn require_time_first(&self) -> Result<(), String> {
+        if self.names.first().map(String::as_str) != Some("time") {
+            return Err(format!(
+                "the first column must be `time` (s); the header is `{}`",
+                self.names.join(",")
+            ));
+        }
+        match self.units.first() {
+            Some(Some(unit)) if unit != "s" => Err(format!(
+                "column `time` is in {unit:?}: give it in s (seconds)"
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The uniform time base of the first column ([`uniform_time_base`]); an error carries
+    /// the file line of the sample it is at.
+    ///
+    /// # Errors
+    /// As [`uniform_time_base`], with the line.
+    pub fn time_base(&self) -> Result<TimeBase, (usize, TimeBaseError)> {
+        let time = self.columns.first().map_or(&[][..], Vec::as_slice);
+        uniform_time_base(time).map_err(|e| (self.lines.get(e.index).copied().unwrap_or(1), e))
+    }
 }
 
 /// A header field split into name and unit: `time [s]` → (`time`, `s`).
