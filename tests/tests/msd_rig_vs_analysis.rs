@@ -22,10 +22,10 @@ use mil_analysis::setup::Setup;
 use mil_analysis::Loop;
 use mil_identify::{band_limited_noise, h1_estimate, FrfEstimate, Record, WelchOptions, Window};
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
-use mil_rig::effects::Element;
 use mil_rig::harness::{run, Histories, Instrumentation};
 use mil_rig::rigs::{substructure_input, substructure_part};
 use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
+use mil_structure::Element;
 use model_core::{
     Causality, Controller, ControllerParams, DemandLimits, InterfaceParams, SubstructureModel,
     SubstructureParams,

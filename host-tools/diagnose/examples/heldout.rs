@@ -294,6 +294,7 @@ fn run_one(sc: &Scenario, set: &str, args: &Args) -> Result<Outcome, Box<dyn Err
     let result = if args.diagnose {
         let t = Instant::now();
         let r = Model::from_toml(&g.model_toml)
+            .map_err(mil_diagnose::Error::from)
             .and_then(|m| Record::from_reader(g.csv.as_bytes()).map(|r| (m, r)))
             .and_then(|(m, r)| diagnose(&m, &r, &Options::default()))
             .map(|d| found_of(&d))

@@ -1820,6 +1820,11 @@ pub fn diagnose_with_progress(
             options.validation_fraction
         )));
     }
+    if model.outputs.is_empty() {
+        return Err(Error::Model(
+            "no [[output]]: the structure measures nothing to compare with the record".into(),
+        ));
+    }
     for o in &model.outputs {
         record.column(&o.column)?;
     }

@@ -65,15 +65,7 @@ pub fn frf_bands(
     f_lo: f64,
     f_hi: f64,
 ) -> Vec<BandEvidence> {
-    let n = u.len();
-    let mut seg = 16usize;
-    while seg * 2 <= n / 8 && seg < 4096 {
-        seg *= 2;
-    }
-    let opts = WelchOptions {
-        segment_length: seg,
-        ..WelchOptions::default()
-    };
+    let opts = WelchOptions::for_record(u.len());
     let est = |out: &[f64]| {
         h1_estimate(
             &[FrfRecord {
@@ -88,7 +80,7 @@ pub fn frf_bands(
     let (Some(d), Some(b), Some(a)) = (est(y), est(before), est(after)) else {
         return Vec::new();
     };
-    let f_lo = f_lo.max(2.0 / (seg as f64 * dt));
+    let f_lo = f_lo.max(2.0 / (opts.segment_length as f64 * dt));
     if f_hi.partial_cmp(&f_lo) != Some(std::cmp::Ordering::Greater) {
         return Vec::new();
     }

@@ -38,10 +38,12 @@
 
 pub mod accelerometer;
 pub mod diagnose;
-pub mod effects;
+/// The effect vocabulary and laws (`mil-structure`'s, shared with the simulated rig).
+pub use mil_structure::effects;
+/// The structure file and the validated model (`mil-structure`'s).
+pub use mil_structure::model;
 pub mod equation;
 pub mod evidence;
-pub mod model;
 pub mod parallel;
 pub mod record;
 pub mod signal;
@@ -79,6 +81,15 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+}
+
+impl From<mil_structure::Error> for Error {
+    fn from(e: mil_structure::Error) -> Self {
+        match e {
+            mil_structure::Error::Model(m) => Error::Model(m),
+            mil_structure::Error::Io { path, source } => Error::Io { path, source },
+        }
+    }
 }
 
 /// Result with the crate's [`Error`].

@@ -1,25 +1,7 @@
-//! Signal helpers: interpolation, zero-phase low-pass filtering, differentiation, spectra
+//! Signal helpers: zero-phase low-pass filtering, differentiation, spectra
 //! and error figures.
 
 use rustfft::{num_complex::Complex64, FftPlanner};
-
-/// `u` at fractional sample index `s` (linear interpolation; the end samples are held
-/// outside the record).
-pub fn sample_at(u: &[f64], s: f64) -> f64 {
-    if u.is_empty() {
-        return 0.0;
-    }
-    if s <= 0.0 {
-        return u[0];
-    }
-    let last = u.len() - 1;
-    if s >= last as f64 {
-        return u[last];
-    }
-    let i = s.floor() as usize;
-    let f = s - i as f64;
-    u[i] + f * (u[i + 1] - u[i])
-}
 
 /// The zero-phase fourth-order Butterworth low-pass diagnosis filters with
 /// (`mil_numerics::filter`, the workspace's one implementation).

@@ -14,9 +14,9 @@ mod common;
 use common::noisy;
 use mil_diagnose::{diagnose, EffectKind, Model, Options, Record};
 use mil_numerics::rng::SplitMix64;
-use mil_rig::effects::{BumpStop, Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
 use mil_rig::specimen::{PlacedElement, Specimen};
+use mil_structure::Element;
 
 /// Record sample rate (Hz) and length (s).
 const FS: f64 = 1000.0;
@@ -58,14 +58,10 @@ impl IdealInterface for DownForce {
 }
 
 fn half_car_record(seed: u64) -> Record {
-    let front = Element::linear(K_F, C_F).with_effects(Effects {
-        bump_stop: Some(BumpStop {
-            gap_m: BUMP_GAP,
-            stiffness_n_per_m: BUMP_K,
-            rebound_gap_m: None,
-        }),
-        ..Effects::default()
-    });
+    let front = Element::linear(K_F, C_F).with(
+        EffectKind::BumpStop,
+        &[("gap_m", BUMP_GAP), ("stiffness_n_per_m", BUMP_K)],
+    );
     let specimen = Specimen {
         dofs: vec!["z_b".into(), "theta_b".into()],
         mass: vec![vec![M_B, 0.0], vec![0.0, I_B]],

@@ -46,10 +46,6 @@ const KNOWN_TOLERANCE: f64 = 0.15;
 
 use common::*;
 use mil_diagnose::{Diagnosis, EffectKind, Model, Record};
-use mil_rig::effects::{
-    AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, FreePlay,
-    QuadraticDamping,
-};
 use mil_rig::specimen::GRAVITY_M_PER_S2;
 
 /// Fraction of the samples in which the linear tyre would pull on the lift-off records.
@@ -99,70 +95,64 @@ fn force(ex: Excitation, seed: u64) -> Vec<f64> {
 /// The hidden effect `kind` sized from the linear response (see the module documentation),
 /// with its main parameters as the report names them: `(name, truth, relative tolerance)`.
 fn effect(kind: EffectKind, x_rms: f64, v_rms: f64) -> (Effects, Truth) {
-    let mut e = Effects::default();
-    let truth = match kind {
+    let (parameters, truth): (&[(&str, f64)], Truth) = match kind {
         EffectKind::CubicStiffness => {
             let k3 = 0.3 * K / (2.0 * x_rms).powi(2);
-            e.cubic_stiffness = Some(CubicStiffness {
-                stiffness_n_per_m3: k3,
-            });
-            vec![("stiffness_n_per_m3", k3, 0.10)]
+            (
+                &[("stiffness_n_per_m3", k3)],
+                vec![("stiffness_n_per_m3", k3, 0.10)],
+            )
         }
         EffectKind::CoulombFriction => {
             let fc = 0.05 * FORCE_RMS;
-            e.coulomb_friction = Some(CoulombFriction {
-                force_n: fc,
-                smoothing_velocity_m_per_s: 1e-3 * v_rms,
-            });
-            vec![("force_n", fc, 0.10)]
+            (
+                &[
+                    ("force_n", fc),
+                    ("smoothing_velocity_m_per_s", 1e-3 * v_rms),
+                ],
+                vec![("force_n", fc, 0.10)],
+            )
         }
         EffectKind::QuadraticDamping => {
             let c2 = C / v_rms;
-            e.quadratic_damping = Some(QuadraticDamping {
-                damping_n_s2_per_m2: c2,
-            });
-            vec![("damping_n_s2_per_m2", c2, 0.15)]
+            (
+                &[("damping_n_s2_per_m2", c2)],
+                vec![("damping_n_s2_per_m2", c2, 0.15)],
+            )
         }
-        EffectKind::AsymmetricDamping => {
-            e.asymmetric_damping = Some(AsymmetricDamping {
-                bump_n_s_per_m: 0.8 * C,
-                rebound_n_s_per_m: 1.2 * C,
-            });
+        EffectKind::AsymmetricDamping => (
+            &[("bump_n_s_per_m", 0.8 * C), ("rebound_n_s_per_m", 1.2 * C)],
             vec![
                 ("bump_n_s_per_m", 0.8 * C, 0.10),
                 ("rebound_n_s_per_m", 1.2 * C, 0.10),
-            ]
-        }
-        EffectKind::BumpStop => {
-            e.bump_stop = Some(BumpStop {
-                gap_m: 1.5 * x_rms,
-                stiffness_n_per_m: K,
-                rebound_gap_m: None,
-            });
-            vec![("gap_m", 1.5 * x_rms, 0.10), ("stiffness_n_per_m", K, 0.15)]
-        }
-        EffectKind::Backlash => {
-            e.free_play = Some(FreePlay {
-                half_gap_m: 0.3 * x_rms,
-            });
-            vec![("half_gap_m", 0.3 * x_rms, 0.10)]
-        }
+            ],
+        ),
+        EffectKind::BumpStop => (
+            &[("gap_m", 1.5 * x_rms), ("stiffness_n_per_m", K)],
+            vec![("gap_m", 1.5 * x_rms, 0.10), ("stiffness_n_per_m", K, 0.15)],
+        ),
+        EffectKind::Backlash => (
+            &[("half_gap_m", 0.3 * x_rms)],
+            vec![("half_gap_m", 0.3 * x_rms, 0.10)],
+        ),
         EffectKind::Hysteresis => {
             // Yield deflection 1/(β + γ) at the RMS deflection, γ/β = 3/7 as in
             // `tests/synthetic_effects.rs`.
             let s = 1.0 / x_rms;
-            e.bouc_wen = Some(BoucWen {
-                alpha: 0.5,
-                a: 1.0,
-                beta: 0.7 * s,
-                gamma: 0.3 * s,
-                n: 1.0,
-            });
-            vec![("alpha", 0.5, 0.15)]
+            (
+                &[
+                    ("alpha", 0.5),
+                    ("a", 1.0),
+                    ("beta_per_m", 0.7 * s),
+                    ("gamma_per_m", 0.3 * s),
+                    ("n", 1.0),
+                ],
+                vec![("alpha", 0.5, 0.15)],
+            )
         }
         _ => unreachable!("element effects only"),
     };
-    (e, truth)
+    (effects(&[(kind, parameters)]), truth)
 }
 
 type Truth = Vec<(&'static str, f64, f64)>;

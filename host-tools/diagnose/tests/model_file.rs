@@ -79,11 +79,29 @@ fn effects_in_the_file_are_simulated() {
     )
     .unwrap();
     let preload = 170.0 * 9.81;
-    let m = Model::from_toml(&format!(
+    // The static load is the tyre element's preload, stated once; lift-off takes none.
+    let text = text.replace(
+        "damping_n_s_per_m = 500.0",
+        &format!("damping_n_s_per_m = 500.0\npreload_n = {preload}"),
+    );
+    let twice = format!(
         "{text}\n[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\nparameters = {{ preload_n = {preload} }}\n"
+    );
+    let e = Model::from_toml(&twice).unwrap_err().to_string();
+    assert!(
+        e.contains("takes no parameters") && e.contains("preload_n"),
+        "{e}"
+    );
+    let m = Model::from_toml(&format!(
+        "{text}\n[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\n"
     ))
     .unwrap();
     assert_eq!(m.effect_specs()[0].effect, EffectKind::LiftOff);
+    assert_eq!(m.elements[1].law.lift_off, Some(preload));
+    // Written back: the preload on the element, the effect without parameters.
+    let back = Model::from_toml(&m.to_toml()).unwrap();
+    assert_eq!(back.elements[1].law, m.elements[1].law);
+    assert_eq!(back.file.elements[1].preload_n, preload);
     let dt = 1e-3;
     let n = 2000;
     let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();

@@ -16,7 +16,6 @@ mod quarter_car;
 
 use common::*;
 use mil_diagnose::{diagnose, EffectKind, Model, Options};
-use mil_rig::effects::Effects;
 
 #[test]
 fn a_damping_the_data_would_make_negative_is_held_at_zero() {

@@ -1,5 +1,5 @@
 //! Synthetic records with a hidden effect, made by the simulated rig (`mil-rig`): a
-//! one-DOF oscillator (mass on a spring-damper element to ground, `mil_rig::effects`
+//! one-DOF oscillator (mass on a spring-damper element to ground, a `mil_structure`
 //! element with the hidden effect switched on) driven by a band-limited random force
 //! through an ideal interface, with measurement noise on displacement and force. The
 //! model handed to the workflow is linear with every parameter 10–15 % off.
@@ -9,7 +9,6 @@ mod common;
 use common::*;
 use mil_diagnose::{EffectKind, Model, Record};
 use mil_numerics::rng::SplitMix64;
-use mil_rig::effects::{CoulombFriction, CubicStiffness, Effects, QuadraticDamping};
 
 /// Simulates the oscillator with `effects`; returns the record (time, force, x) with
 /// displacement noise `x_noise` (m rms) and force noise `f_noise` (N rms).
@@ -82,12 +81,7 @@ fn hidden_cubic_stiffness_is_named() {
     let k3 = 6.0e9;
     let d = run_oscillator(
         "cubic stiffness",
-        Effects {
-            cubic_stiffness: Some(CubicStiffness {
-                stiffness_n_per_m3: k3,
-            }),
-            ..Effects::default()
-        },
+        effects(&[(EffectKind::CubicStiffness, &[("stiffness_n_per_m3", k3)])]),
         2,
     );
     assert_eq!(names(&d), [EffectKind::CubicStiffness]);
@@ -105,13 +99,10 @@ fn hidden_coulomb_friction_is_named() {
     let fc = 2.0;
     let d = run_oscillator(
         "Coulomb friction",
-        Effects {
-            coulomb_friction: Some(CoulombFriction {
-                force_n: fc,
-                smoothing_velocity_m_per_s: 1e-3,
-            }),
-            ..Effects::default()
-        },
+        effects(&[(
+            EffectKind::CoulombFriction,
+            &[("force_n", fc), ("smoothing_velocity_m_per_s", 1e-3)],
+        )]),
         3,
     );
     assert_eq!(names(&d), [EffectKind::CoulombFriction]);
@@ -126,12 +117,7 @@ fn hidden_quadratic_damping_is_named() {
     let c2 = 300.0;
     let d = run_oscillator(
         "quadratic damping",
-        Effects {
-            quadratic_damping: Some(QuadraticDamping {
-                damping_n_s2_per_m2: c2,
-            }),
-            ..Effects::default()
-        },
+        effects(&[(EffectKind::QuadraticDamping, &[("damping_n_s2_per_m2", c2)])]),
         4,
     );
     assert_eq!(names(&d), [EffectKind::QuadraticDamping]);
@@ -145,12 +131,7 @@ fn hidden_quadratic_damping_is_named() {
 fn json_report_has_exactly_the_issue_keys() {
     let d = run_oscillator(
         "json",
-        Effects {
-            cubic_stiffness: Some(CubicStiffness {
-                stiffness_n_per_m3: 6.0e9,
-            }),
-            ..Effects::default()
-        },
+        effects(&[(EffectKind::CubicStiffness, &[("stiffness_n_per_m3", 6.0e9)])]),
         5,
     );
     let json = serde_json::to_value(d.json_report("out/updated.toml")).unwrap();

@@ -2,7 +2,7 @@
 //! made by the simulated rig (`mil-rig`), and one record with two hidden effects.
 //!
 //! - Element effects (asymmetric damping, bump stop, free play, Bouc-Wen hysteresis, and
-//!   Coulomb friction + cubic stiffness together) are switched on in the `mil_rig::effects`
+//!   Coulomb friction + cubic stiffness together) are switched on in the `mil_structure`
 //!   element of a one-DOF oscillator (2 kg on a 20 kN/m, 20 N·s/m spring-damper to ground)
 //!   driven by a prescribed force, as in `synthetic.rs`.
 //! - Input effects (`input_delay`, `saturation`, `rate_limit`): `mil-rig` has no such effect
@@ -11,7 +11,7 @@
 //!   effect), which is what a test system logs.
 //! - Lift-off: a 250 kg mass on a preloaded tyre spring (static load `m g`) driven by a
 //!   track-like road (random profile plus bumps) through a displacement input; the tyre can
-//!   only push (`mil_rig` `lift_off`).
+//!   only push (`mil_structure` `lift_off`).
 //!
 //! Excitations: band-limited random force, a repeated logarithmic sine sweep, and the
 //! track-like road. Measurement noise: 0.5 % of the clean signal's RMS on the force (or
@@ -39,9 +39,6 @@ mod common;
 
 use common::*;
 use mil_diagnose::{Diagnosis, EffectKind, Record};
-use mil_rig::effects::{
-    AsymmetricDamping, BoucWen, BumpStop, CoulombFriction, CubicStiffness, Effects, FreePlay,
-};
 use mil_rig::specimen::GRAVITY_M_PER_S2;
 
 /// The record seed `n`, shifted by the environment variable `DIAGNOSE_SEED_OFFSET` (to
@@ -124,13 +121,10 @@ fn hidden_asymmetric_damping_is_named() {
     let (bump, rebound) = (10.0, 30.0);
     let f = noise_force(seed(11));
     let record = force_record(
-        Effects {
-            asymmetric_damping: Some(AsymmetricDamping {
-                bump_n_s_per_m: bump,
-                rebound_n_s_per_m: rebound,
-            }),
-            ..Effects::default()
-        },
+        effects(&[(
+            EffectKind::AsymmetricDamping,
+            &[("bump_n_s_per_m", bump), ("rebound_n_s_per_m", rebound)],
+        )]),
         &f,
         &f,
         seed(11),
@@ -156,19 +150,11 @@ fn hidden_asymmetric_damping_is_named() {
 /// its stiffness within 15 %, and the gap must shrink.
 fn stop_named(what: &str, gap: f64, rebound: Option<f64>, kb: f64, seed: u64) {
     let f = sweep_force(30.0);
-    let record = force_record(
-        Effects {
-            bump_stop: Some(BumpStop {
-                gap_m: gap,
-                stiffness_n_per_m: kb,
-                rebound_gap_m: rebound,
-            }),
-            ..Effects::default()
-        },
-        &f,
-        &f,
-        seed,
-    );
+    let mut stop = vec![("gap_m", gap), ("stiffness_n_per_m", kb)];
+    if let Some(rebound) = rebound {
+        stop.push(("rebound_gap_m", rebound));
+    }
+    let record = force_record(effects(&[(EffectKind::BumpStop, &stop)]), &f, &f, seed);
     let d = run(what, &oscillator_model(), &record);
     assert_eq!(names(&d), [EffectKind::BumpStop]);
     let k = EffectKind::BumpStop;
@@ -213,10 +199,7 @@ fn hidden_backlash_is_named() {
     let b = 0.4e-3;
     let f = noise_force(seed(13));
     let record = force_record(
-        Effects {
-            free_play: Some(FreePlay { half_gap_m: b }),
-            ..Effects::default()
-        },
+        effects(&[(EffectKind::Backlash, &[("half_gap_m", b)])]),
         &f,
         &f,
         seed(13),
@@ -247,22 +230,56 @@ fn hidden_hysteresis_is_named() {
     check_hysteresis(&d, &HYSTERESIS);
 }
 
+/// A hidden Bouc-Wen loop: the parameters of `hysteresis` (see
+/// [`EffectKind::Hysteresis`]).
+#[derive(Clone, Copy, Debug)]
+struct BoucWen {
+    /// Ratio `α` of post-yield to elastic stiffness (-).
+    alpha: f64,
+    /// `A` (-).
+    a: f64,
+    /// `β` (1/m^n).
+    beta_per_m: f64,
+    /// `γ` (1/m^n).
+    gamma_per_m: f64,
+    /// `n` (-).
+    n: f64,
+}
+
+impl BoucWen {
+    /// Yield deflection `z_y = (A / (β + γ))^(1/n)` (m): the value `z` saturates at under
+    /// monotonic loading.
+    fn yield_deflection_m(&self) -> f64 {
+        (self.a / (self.beta_per_m + self.gamma_per_m)).powf(1.0 / self.n)
+    }
+
+    /// The element effects with this loop on.
+    fn effects(&self) -> Effects {
+        effects(&[(
+            EffectKind::Hysteresis,
+            &[
+                ("alpha", self.alpha),
+                ("a", self.a),
+                ("beta_per_m", self.beta_per_m),
+                ("gamma_per_m", self.gamma_per_m),
+                ("n", self.n),
+            ],
+        )])
+    }
+}
+
 /// Bouc-Wen: half the stiffness hysteretic, yield deflection 1/(β+γ) = 1 mm.
 const HYSTERESIS: BoucWen = BoucWen {
     alpha: 0.5,
     a: 1.0,
-    beta: 700.0,
-    gamma: 300.0,
+    beta_per_m: 700.0,
+    gamma_per_m: 300.0,
     n: 1.0,
 };
 
 /// The oscillator with [`HYSTERESIS`] driven by the force `f`.
 fn hysteresis_record(f: &[f64], seed: u64) -> Record {
-    let effects = Effects {
-        bouc_wen: Some(HYSTERESIS),
-        ..Effects::default()
-    };
-    force_record(effects, f, f, seed)
+    force_record(HYSTERESIS.effects(), f, f, seed)
 }
 
 /// Checks that hysteresis alone is named, like `bw`. β and γ separately are weakly
@@ -307,15 +324,11 @@ fn a_weak_loop_in_a_ringing_oscillator_under_one_down_sweep_is_named() {
     let bw = BoucWen {
         alpha: 0.99,
         a: 1.0,
-        beta: 0.7 / zy,
-        gamma: 0.3 / zy,
+        beta_per_m: 0.7 / zy,
+        gamma_per_m: 0.3 / zy,
         n: 1.0,
     };
-    let effects = Effects {
-        bouc_wen: Some(bw),
-        ..Effects::default()
-    };
-    let x = plant_response(oscillator_plant_of(mass, k, c, effects), &f);
+    let x = plant_response(oscillator_plant_of(mass, k, c, bw.effects()), &f);
     let record = noisy_record("force", &f, &x, seed(17));
     let model = oscillator_model_of(mass, k, c);
     let d = run("weak hysteresis (one down sweep, ringing)", &model, &record);
@@ -520,16 +533,13 @@ fn friction_and_cubic(what: &str, seed: u64) -> Diagnosis {
     let (fc, k3) = (2.0, 6.0e9);
     let f = noise_force(seed);
     let record = force_record(
-        Effects {
-            coulomb_friction: Some(CoulombFriction {
-                force_n: fc,
-                smoothing_velocity_m_per_s: 1e-3,
-            }),
-            cubic_stiffness: Some(CubicStiffness {
-                stiffness_n_per_m3: k3,
-            }),
-            ..Effects::default()
-        },
+        effects(&[
+            (
+                EffectKind::CoulombFriction,
+                &[("force_n", fc), ("smoothing_velocity_m_per_s", 1e-3)],
+            ),
+            (EffectKind::CubicStiffness, &[("stiffness_n_per_m3", k3)]),
+        ]),
         &f,
         &f,
         seed,
@@ -568,12 +578,16 @@ fn hidden_friction_and_cubic_stiffness_are_both_named() {
 /// like the cubic), and neither effect refined on top of it pays off: the stand-in check
 /// continues the first round's runner-up (the cubic spring), finds the friction with it,
 /// and names the pair. (Without the check, hysteresis alone was named here.) The record is
-/// fixed, not shifted by `DIAGNOSE_SEED_OFFSET`: the check is exercised on this one.
+/// fixed, not shifted by `DIAGNOSE_SEED_OFFSET`: the check is exercised on this one. Which
+/// route a record takes is sensitive: seed 27 took it until the rig's element laws became
+/// `mil-structure`'s, whose different summation order changed the record by 1e-14 relative
+/// and let the cubic spring beat the loop in the first round (the pair was still named,
+/// directly); seed 36 (one of the first two of 0–79 that take this route now) is used.
 #[test]
 fn a_one_effect_stand_in_gives_way_to_the_two_effects() {
     let d = friction_and_cubic(
         "Coulomb friction + cubic stiffness, hysteresis first (noise)",
-        27,
+        36,
     );
     assert!(
         d.notes
@@ -654,12 +668,7 @@ fn a_hardening_spring_behind_a_rate_limited_drive_is_named_as_such() {
     let rate = amplitude * std::f64::consts::TAU * 60.0 / 3.0;
     let applied = rate_limited(&f, rate);
     let record = force_record(
-        Effects {
-            cubic_stiffness: Some(CubicStiffness {
-                stiffness_n_per_m3: k3,
-            }),
-            ..Effects::default()
-        },
+        effects(&[(EffectKind::CubicStiffness, &[("stiffness_n_per_m3", k3)])]),
         &applied,
         &f,
         seed(29),

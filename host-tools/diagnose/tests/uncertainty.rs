@@ -13,8 +13,7 @@
 mod common;
 
 use common::*;
-use mil_diagnose::{diagnose, Options};
-use mil_rig::effects::{CubicStiffness, Effects};
+use mil_diagnose::{diagnose, EffectKind, Options};
 
 #[test]
 fn recalibrated_uncertainties_cover_their_scatter_when_an_effect_is_missing() {
@@ -29,13 +28,8 @@ fn recalibrated_uncertainties_cover_their_scatter_when_an_effect_is_missing() {
     for r in 0..records {
         let seed = 700 + r;
         let f = mil_identify::band_limited_noise(0.5, 60.0, 8.0, FS, FORCE_RMS, false, seed);
-        let effects = Effects {
-            cubic_stiffness: Some(CubicStiffness {
-                stiffness_n_per_m3: 6.0e9,
-            }),
-            ..Effects::default()
-        };
-        let x = oscillator_response(effects, &f);
+        let cubic = effects(&[(EffectKind::CubicStiffness, &[("stiffness_n_per_m3", 6.0e9)])]);
+        let x = oscillator_response(cubic, &f);
         let record = noisy_record("force", &f, &x, seed);
         let options = Options {
             max_effects: 0,

@@ -135,12 +135,9 @@ fn one_norm(m: &DMatrix<f64>) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// `e^M - I` for a square matrix, accurate for small `M` (no `I + small - I` cancellation).
-///
-/// Scaling and squaring on `F = e^M - I` itself: `M` is scaled by `2^-s` so that
-/// `‖M 2^-s‖₁ ≤ 1/2`, `F` of the scaled matrix is summed from its Taylor series
-/// (`Σ_{k≥1} X^k/k!`, 18 terms: truncation below `1e-20` relative), and the scaling is undone
-/// with `F(2X) = 2F(X) + F(X)²`, which never forms `I + F`.
+/// `e^M - I` for a square matrix, accurate for small `M` (no `I + small - I` cancellation):
+/// `mil_numerics::expm`'s scaling and squaring on `F = e^M - I` itself (the workspace's one
+/// matrix exponential).
 ///
 /// # Errors
 /// A non-square or non-finite matrix.
@@ -152,26 +149,21 @@ pub fn expm_minus_identity(m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
             got: m.shape(),
         });
     }
-    let norm = one_norm(m);
-    if !norm.is_finite() {
+    if !one_norm(m).is_finite() {
         return Err(DiscretiseError::NonFinite("matrix exponential argument"));
     }
-    let squarings = if norm > 0.5 {
-        (norm / 0.5).log2().ceil().max(0.0) as i32
-    } else {
-        0
-    };
-    let x = m * 2f64.powi(-squarings);
-    let mut term = x.clone();
-    let mut f = x.clone();
-    for k in 2..=18 {
-        term = &term * &x / f64::from(k);
-        f += &term;
-    }
-    for _ in 0..squarings {
-        f = &f * 2.0 + &f * &f;
-    }
-    if f.iter().any(|v| !v.is_finite()) {
+    // Column-major storage passed as row-major is the transpose, and the transpose commutes
+    // with the exponential: the result comes back column-major.
+    let n = m.nrows();
+    let mut f = DMatrix::zeros(n, n);
+    let mut scratch = mil_numerics::expm::ExpmScratch::default();
+    if !mil_numerics::expm::expm_minus_identity(
+        m.as_slice(),
+        n,
+        1.0,
+        f.as_mut_slice(),
+        &mut scratch,
+    ) {
         return Err(DiscretiseError::NonFinite("matrix exponential"));
     }
     Ok(f)

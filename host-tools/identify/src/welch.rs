@@ -72,6 +72,26 @@ impl Default for WelchOptions {
 }
 
 impl WelchOptions {
+    /// Longest segment [`WelchOptions::for_record`] chooses (samples).
+    pub const MAX_AUTO_SEGMENT: usize = 4096;
+    /// Shortest segment [`WelchOptions::for_record`] chooses (samples).
+    pub const MIN_AUTO_SEGMENT: usize = 16;
+
+    /// The workspace's segment rule for a record of `samples` samples whose user gave no
+    /// segment length: the longest power of two that fits 8 times into the record (about 29
+    /// averaged segments at 75 % overlap: a coherence worth reading), between
+    /// [`Self::MIN_AUTO_SEGMENT`] and [`Self::MAX_AUTO_SEGMENT`]; default overlap and window.
+    pub fn for_record(samples: usize) -> Self {
+        let mut segment = Self::MIN_AUTO_SEGMENT;
+        while segment * 2 <= samples / 8 && segment < Self::MAX_AUTO_SEGMENT {
+            segment *= 2;
+        }
+        Self {
+            segment_length: segment,
+            ..Self::default()
+        }
+    }
+
     /// Checks the options; errors name the bad field.
     pub fn validate(&self) -> Result<()> {
         if self.segment_length < 4 {
@@ -306,4 +326,26 @@ pub fn h1_estimate(
         coherence,
         segments,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_segment_rule_fits_eight_segments_between_its_bounds() {
+        assert_eq!(WelchOptions::for_record(0).segment_length, 16);
+        assert_eq!(WelchOptions::for_record(100).segment_length, 16);
+        // 8 × 512 = 4096 fits, 8 × 1024 does not.
+        assert_eq!(WelchOptions::for_record(4096).segment_length, 512);
+        assert_eq!(WelchOptions::for_record(8191).segment_length, 512);
+        assert_eq!(WelchOptions::for_record(8192).segment_length, 1024);
+        assert_eq!(WelchOptions::for_record(10_000_000).segment_length, 4096);
+        for n in [64, 1000, 33_000, 1 << 20] {
+            let o = WelchOptions::for_record(n);
+            assert!(o.segment_length.is_power_of_two());
+            assert!(o.segment_length == 16 || 8 * o.segment_length <= n, "{n}");
+            assert_eq!(o.overlap, WelchOptions::default().overlap);
+        }
+    }
 }

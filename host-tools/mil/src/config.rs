@@ -210,20 +210,35 @@ pub struct RigSection {
     pub actuator_effects: mil_rig::actuator::ActuatorEffects,
     /// The quarter car's suspension (tyre rig); default: the paper's linear `k_c`, `c_c`.
     /// Its preload is set to carry the sprung mass.
-    pub suspension: Option<mil_rig::effects::Element>,
-    /// Effects of the emulated (real) tyre, the vehicle's own; default: lift-off as
-    /// `[tyre]` says. Effects here and not in the board's model are hidden effects.
-    pub tyre_effects: Option<mil_rig::effects::Effects>,
+    pub suspension: Option<mil_structure::Element>,
+    /// Effects of the emulated (real) tyre, the vehicle's own, by name with their
+    /// parameters (`mil_structure::EffectKind`, e.g. `{ lift_off = {}, bump_stop = { ... } }`);
+    /// default: lift-off as `[tyre]` says. Effects here and not in the board's model are
+    /// hidden effects.
+    pub tyre_effects:
+        Option<std::collections::BTreeMap<mil_structure::EffectKind, mil_structure::Parameters>>,
     /// The half car's front suspension (aero rig); default: the paper's.
-    pub front_suspension: Option<mil_rig::effects::Element>,
+    pub front_suspension: Option<mil_structure::Element>,
     /// The half car's rear suspension (aero rig); default: the paper's.
-    pub rear_suspension: Option<mil_rig::effects::Element>,
-    /// The physical specimen of a substructure run (required there): DOFs, mass matrix,
-    /// static forces, force elements (with their effects), road inputs and one actuator
-    /// attachment per channel (see `mil_rig::specimen`). Its road inputs are named after
-    /// the run's road inputs they follow, `road_0` … (channel `c`'s road); it must be at
-    /// rest with zero actuator force (preloads balancing the static forces).
-    pub specimen: Option<mil_rig::specimen::Specimen>,
+    pub rear_suspension: Option<mil_structure::Element>,
+    /// The physical specimen of a substructure run (required there): a structure file (the
+    /// schema of `mil diagnose`'s models and `updated.toml`) and where the actuators act.
+    pub structure: Option<StructureOnRig>,
+}
+
+/// `[rig.structure]`: a structure file on the simulated rig.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StructureOnRig {
+    /// The structure file, relative to the configuration. It must be at rest with zero
+    /// actuator force: its springs carry its weights (`gravity_m_per_s2`).
+    pub file: PathBuf,
+    /// Per channel, the DOF or point the actuator drives (along its positive direction).
+    pub attach: Vec<String>,
+    /// The run's road input (`road_0` …) each of the structure's displacement inputs
+    /// follows, by input name.
+    #[serde(default)]
+    pub roads: std::collections::BTreeMap<String, String>,
 }
 
 impl Default for RigSection {
@@ -236,7 +251,7 @@ impl Default for RigSection {
             tyre_effects: None,
             front_suspension: None,
             rear_suspension: None,
-            specimen: None,
+            structure: None,
         }
     }
 }
@@ -444,6 +459,21 @@ impl Config {
         Ok(cascade)
     }
 
+    /// [`Config::validate`], and for a substructure the physical specimen as `mil sim`
+    /// builds it: read, valid, at rest with zero actuator force.
+    pub fn validate_sim(&self) -> Result<Validated> {
+        let validated = self.validate()?;
+        if self.model.kind == ModelKind::Substructure {
+            let channels = self.channels();
+            let (specimen, _) = self.physical_specimen(channels)?;
+            specimen
+                .validate()
+                .and_then(|()| specimen.check_at_rest(&vec![0.0; channels]))
+                .map_err(|e| anyhow::anyhow!("the rig's physical specimen: {e}"))?;
+        }
+        Ok(validated)
+    }
+
     /// Validates everything and builds the controller's parameter set.
     pub fn validate(&self) -> Result<Validated> {
         let fs = self.run.sample_rate_hz;
@@ -532,6 +562,59 @@ impl Config {
                 Ok(Validated::Substructure(prepared))
             }
         }
+    }
+}
+
+impl Config {
+    /// The physical specimen of a substructure run, from `[rig.structure]`, and the run's
+    /// road (channel) each of its road inputs follows.
+    ///
+    /// # Errors
+    /// None given, an unreadable or invalid structure file, an unknown attachment, an
+    /// unmapped road input.
+    pub fn physical_specimen(
+        &self,
+        channels: usize,
+    ) -> Result<(mil_rig::specimen::Specimen, Vec<usize>)> {
+        let on_rig = self.rig.structure.as_ref().context(
+            "model.kind = \"substructure\" needs the physical specimen on the rig: \
+             [rig.structure] (a structure file and the DOF or point each actuator drives)",
+        )?;
+        let path = self.base.join(&on_rig.file);
+        let model = mil_structure::Model::read(&path)
+            .map_err(|e| anyhow::anyhow!("rig.structure.file: {e}"))?;
+        let specimen = mil_rig::specimen::Specimen::from_structure(&model, &on_rig.attach)
+            .map_err(|e| anyhow::anyhow!("rig.structure ({}): {e}", path.display()))?;
+        if let Some(name) = on_rig.roads.keys().find(|n| !specimen.inputs.contains(n)) {
+            bail!(
+                "rig.structure.roads: {name:?} is no displacement input of {} (inputs: {:?})",
+                path.display(),
+                specimen.inputs
+            );
+        }
+        let roads = specimen
+            .inputs
+            .iter()
+            .map(|input| {
+                let road = on_rig.roads.get(input).with_context(|| {
+                    format!(
+                        "rig.structure.roads: say which run road the structure's input \
+                         {input:?} follows, e.g. {input} = \"road_0\""
+                    )
+                })?;
+                road.strip_prefix("road_")
+                    .and_then(|c| c.parse::<usize>().ok())
+                    .filter(|c| *c < channels)
+                    .with_context(|| {
+                        format!(
+                            "rig.structure.roads: {input} = {road:?}: name the run's road input \
+                             it follows, road_0 to road_{}",
+                            channels.saturating_sub(1)
+                        )
+                    })
+            })
+            .collect::<Result<_>>()?;
+        Ok((specimen, roads))
     }
 }
 

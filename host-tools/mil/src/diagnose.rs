@@ -65,7 +65,7 @@ pub fn run_diagnose(
     request: &DiagnoseRequest,
     progress: &dyn Fn(f64, &str),
 ) -> Result<DiagnoseOutput> {
-    let model = Model::read(&request.model).map_err(|e| anyhow!("{e}"))?;
+    let model = Model::read(&request.model).map_err(|e| anyhow!("model: {e}"))?;
     let record = Record::read(&request.data).map_err(|e| anyhow!("{e}"))?;
     check_columns(&model, &record, &request.data)?;
     // A record past the diagnosis' sample budget is averaged down (or refused) once here,
@@ -476,15 +476,7 @@ fn frf(
     dir: &Path,
 ) -> Result<Vec<PathBuf>> {
     let inputs = prepare_inputs(&d.original, record).map_err(|e| anyhow!("{e}"))?;
-    let n = record.len();
-    let mut seg = 16usize;
-    while seg * 2 <= n / 8 && seg < 4096 {
-        seg *= 2;
-    }
-    let opts = WelchOptions {
-        segment_length: seg,
-        ..WelchOptions::default()
-    };
+    let opts = WelchOptions::for_record(record.len());
     let f_hi = d.cutoff_hz.min(0.45 / record.dt);
     let est = |u: &[f64], y: &[f64]| {
         h1_estimate(
@@ -562,19 +554,26 @@ fn frf(
 mod tests {
     use super::*;
 
+    /// The tyre example's model with the given effects on its `tyre` element, whose
+    /// static load is `preload_n` (N).
+    fn tyre_model_loaded(effects: &str, preload_n: f64) -> Model {
+        let text = include_str!("../../diagnose/examples/tyre.toml").replace(
+            "damping_n_s_per_m = 500.0",
+            &format!("damping_n_s_per_m = 500.0\npreload_n = {preload_n}"),
+        );
+        Model::from_toml(&format!("{text}\n{effects}")).expect("model")
+    }
+
     /// The tyre example's model with the given effects on its `tyre` element.
     fn tyre_model(effects: &str) -> Model {
-        let text = format!(
-            "{}\n{effects}",
-            include_str!("../../diagnose/examples/tyre.toml")
-        );
-        Model::from_toml(&text).expect("model")
+        tyre_model_loaded(effects, 0.0)
     }
 
     #[test]
     fn the_diagnosed_tyre_becomes_model_cores_tyre() {
-        let m = tyre_model(
-            "[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\nparameters = { preload_n = 1668.5 }\n",
+        let m = tyre_model_loaded(
+            "[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\n",
+            1668.5,
         );
         let t = tyre_section(&m, "tyre", None).expect("tyre");
         assert_eq!(t.stiffness_n_per_m, 250.0e3);

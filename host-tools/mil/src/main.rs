@@ -499,7 +499,13 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Check { config } => {
-            Config::from_file(&config)?.validate()?;
+            // A configuration with a rig specimen is checked as `mil sim` runs it.
+            let c = Config::from_file(&config)?;
+            if c.rig.structure.is_some() {
+                c.validate_sim()?;
+            } else {
+                c.validate()?;
+            }
             println!("{}: valid", config.display());
             Ok(())
         }

@@ -3,7 +3,7 @@
 //!
 //! The run configuration is `mil run`'s (`[run]`, `[model]`, `[tyre]`/`[aero]` and
 //! `[speed]`/`[substructure]`, `[limits]`, `[input]`, `[controller]`) plus the rig (`[rig]`,
-//! with the physical specimen of a substructure in `[rig.specimen]`; `[sensors]`,
+//! with the physical specimen of a substructure in `[rig.structure]` (a structure file); `[sensors]`,
 //! `[links]`) and the comparison (`[compare]`). Outputs: the time histories (CSV, `time` first, SI units),
 //! SVG plots, and a summary: per channel the error figures of MiL against emulated for the
 //! interface force and position (J1 delay at the cross-correlation peak, J2 normalised RMS
@@ -23,11 +23,11 @@ use mil_identify::{h1_estimate, FrfEstimate, Record, WelchOptions, Window};
 use mil_numerics::filter::lowpass2_zero_phase;
 use mil_plots::{BodePlot, BodeSeries, SeriesStyle, XyPlot, XySeries};
 use mil_rig::actuator::ForceActuator;
-use mil_rig::effects::Element;
 use mil_rig::harness::{self, Histories, Instrumentation, LinkStatistics, RigPart};
 use mil_rig::metrics::{compare, Comparison};
 use mil_rig::rigs::IdealAero;
 use mil_rig::specimen::Specimen;
+use mil_structure::{EffectKind, Element};
 use model_core::{Controller, Mode, ModelInput, PreparedParams, Status, SubstructureModel};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -159,7 +159,7 @@ pub struct SimOutput {
 /// # Errors
 /// An invalid configuration, rig or analysis set-up.
 pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput> {
-    let validated = config.validate()?;
+    let validated = config.validate_sim()?;
     let fs = config.run.sample_rate_hz;
     let step = config.rig.internal_step_s;
     if !(step.is_finite() && step > 0.0 && step <= 1.0 / fs) {
@@ -214,19 +214,18 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             let suspension = config
                 .rig
                 .suspension
+                .clone()
                 .unwrap_or_else(|| Specimen::quarter_car_suspension(&car));
             let mut tyre_element = Element::linear(
                 f64::from(tyre.stiffness_n_per_m),
                 f64::from(tyre.damping_n_s_per_m),
             )
             .with_preload(f64::from(tyre.static_load_n));
-            tyre_element.effects = config
-                .rig
-                .tyre_effects
-                .unwrap_or(mil_rig::effects::Effects {
-                    lift_off: tyre.lift_off,
-                    ..Default::default()
-                });
+            tyre_element.effects = match &config.rig.tyre_effects {
+                Some(effects) => effects.clone(),
+                None if tyre.lift_off => [(EffectKind::LiftOff, Default::default())].into(),
+                None => Default::default(),
+            };
             tyre_element
                 .validate()
                 .map_err(|e| anyhow::anyhow!("rig.tyre_effects: {e}"))?;
@@ -234,9 +233,9 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
                 .map(|c| {
                     mil_rig::rigs::quarter_car_part(
                         &car,
-                        suspension,
+                        suspension.clone(),
                         actuator,
-                        tyre_element,
+                        tyre_element.clone(),
                         c,
                         c,
                         step,
@@ -271,10 +270,12 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             let front = config
                 .rig
                 .front_suspension
+                .clone()
                 .unwrap_or_else(|| Specimen::half_car_suspensions(&car).0);
             let rear = config
                 .rig
                 .rear_suspension
+                .clone()
                 .unwrap_or_else(|| Specimen::half_car_suspensions(&car).1);
             // The speed is the run's third input column (m/s): the board reads it per
             // sample, the emulated aero model follows it ramped between samples. The rig
@@ -400,7 +401,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
 }
 
 /// The run's physical specimen on `CH` force-controlled actuators with the board's
-/// substructure model: builds the rig part from `[rig.specimen]` and runs it. Returns the
+/// substructure model: builds the rig part from `[rig.structure]` and runs it. Returns the
 /// histories, the link statistics and the command filter's sections.
 fn substructure<const CH: usize>(
     prepared: PreparedParams<SubstructureModel<CH>, CH>,
@@ -410,25 +411,7 @@ fn substructure<const CH: usize>(
     instrumentation: &Instrumentation,
     progress: impl FnMut(f64),
 ) -> Result<(Histories, LinkStatistics, usize)> {
-    let specimen = config.rig.specimen.clone().context(
-        "model.kind = \"substructure\" needs the physical specimen on the rig: [rig.specimen]",
-    )?;
-    let specimen_inputs = specimen
-        .inputs
-        .iter()
-        .map(|name| {
-            name.strip_prefix("road_")
-                .and_then(|c| c.parse::<usize>().ok())
-                .filter(|c| *c < CH)
-                .with_context(|| {
-                    format!(
-                        "rig.specimen input {name:?}: name the run's road input it follows, \
-                         road_0 to road_{}",
-                        CH - 1
-                    )
-                })
-        })
-        .collect::<Result<Vec<usize>>>()?;
+    let (specimen, specimen_inputs) = config.physical_specimen(CH)?;
     let model_roads: [usize; CH] = std::array::from_fn(|c| c);
     let params = prepared.params().model;
     let mut parts = vec![mil_rig::rigs::substructure_part(
@@ -440,7 +423,7 @@ fn substructure<const CH: usize>(
         model_roads,
         config.rig.internal_step_s,
     )
-    .map_err(|e| anyhow!("rig.specimen: {}", e.0))?];
+    .map_err(|e| anyhow!("rig.structure: {}", e.0))?];
     let sections = prepared.params().filter[0].active().len();
     let mut controller = Controller::new(prepared);
     let (h, links) = harness::run(

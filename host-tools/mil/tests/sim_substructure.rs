@@ -122,29 +122,66 @@ fn bad_substructure_configurations_are_refused() {
             Err(e) => format!("{e:#}"),
         }
     };
+    // Structure files the rig cannot run, next to the configuration.
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bad-substructure");
+    std::fs::create_dir_all(&dir).unwrap();
+    let physical = std::fs::read_to_string(examples().join("msd-physical.toml")).unwrap();
+    let bad_structure = |name: &str, from: &str, to: &str| -> String {
+        assert!(physical.contains(from), "{from}");
+        let path = dir.join(name);
+        std::fs::write(&path, physical.replacen(from, to, 1)).unwrap();
+        format!("file = {:?}", path.display().to_string())
+    };
+    // Its spring holding a preload that does not carry the mass (40 N of 49.05 N).
+    let unbalanced = bad_structure(
+        "unbalanced.toml",
+        "damping_n_s_per_m = 10.0",
+        "damping_n_s_per_m = 10.0\npreload_n = 40.0",
+    );
+    // No gravity, and a preload: not at rest with zero actuator force.
+    let weightless = bad_structure("weightless.toml", "gravity_m_per_s2 = 9.81\n", "");
+    let weightless_path = dir.join("weightless.toml");
+    let text = std::fs::read_to_string(&weightless_path).unwrap().replace(
+        "damping_n_s_per_m = 10.0",
+        "damping_n_s_per_m = 10.0\npreload_n = 49.05",
+    );
+    std::fs::write(&weightless_path, text).unwrap();
+    // The mass on a post (a displacement input) instead of the bed.
+    let on_post = bad_structure("post.toml", "lower = \"ground\"", "lower = \"post\"");
+    let post_path = dir.join("post.toml");
+    let text = std::fs::read_to_string(&post_path).unwrap()
+        + "\n[[input]]\nname = \"post\"\nkind = \"displacement\"\ncolumn = \"road_0\"\n";
+    std::fs::write(&post_path, text).unwrap();
+    let file = "file = \"msd-physical.toml\"";
     let cases: &[(&[(&str, &str)], &str)] = &[
         (
-            &[("preload_n = 49.05", "preload_n = 40.0")],
-            "not at rest with zero actuator force",
+            &[(file, &unbalanced)],
+            "preload_n carry 40.0 N at dof \"x_p\", but its weight is 49.1 N",
+        ),
+        (&[(file, &weightless)], "not at rest"),
+        (
+            &[(file, &on_post)],
+            "rig.structure.roads: say which run road the structure's input \"post\" follows",
         ),
         (
             &[
-                ("inputs = []", "inputs = [\"post\"]"),
-                ("input_coefficients = []", "input_coefficients = [1.0]"),
+                (file, &on_post),
+                (
+                    "attach = [\"x_p\"]",
+                    "attach = [\"x_p\"]\nroads = { post = \"road_1\" }",
+                ),
             ],
-            "rig.specimen input \"post\": name the run's road input it follows, road_0",
+            "post = \"road_1\": name the run's road input it follows, road_0 to road_0",
         ),
         (
-            &[
-                ("inputs = []", "inputs = [\"road_1\"]"),
-                ("input_coefficients = []", "input_coefficients = [1.0]"),
-            ],
-            "road_1",
+            &[("attach = [\"x_p\"]", "attach = [\"x_q\"]")],
+            "attachment \"x_q\" is no DOF or point",
         ),
         (
-            &[("static_force = [-49.05]", "static_forces = [-49.05]")],
-            "unknown field `static_forces`",
+            &[("attach = [\"x_p\"]", "attached = [\"x_p\"]")],
+            "unknown field `attached`",
         ),
+        (&[(file, "file = \"missing.toml\"")], "rig.structure.file"),
         (&[("dof = \"x_n\"", "dof = \"x_m\"")], "no DOF \"x_m\""),
         (
             &[("mass = [[10.0]]", "mass = [[10.0, 0.0]]")],
@@ -155,7 +192,7 @@ fn bad_substructure_configurations_are_refused() {
             "SubstructureMass",
         ),
         (
-            &[("attachments = [[1.0]]", "attachments = [[1.0], [1.0]]")],
+            &[("attach = [\"x_p\"]", "attach = [\"x_p\", \"x_p\"]")],
             "2 attachment(s)",
         ),
         (
@@ -187,13 +224,13 @@ fn bad_substructure_configurations_are_refused() {
     }
     // No physical specimen at all.
     let mut t = std::fs::read_to_string(examples().join("msd.toml")).unwrap();
-    let start = t.find("[rig.specimen]").unwrap();
+    let start = t.find("[rig.structure]").unwrap();
     let end = t.find("[sensors]").unwrap();
     t.replace_range(start..end, "");
     let c = Config::from_toml(&t, &examples()).unwrap();
     let e = format!("{:#}", simulate(&c, |_| {}).err().unwrap());
     assert!(
-        e.contains("needs the physical specimen on the rig: [rig.specimen]"),
+        e.contains("needs the physical specimen on the rig: [rig.structure]"),
         "{e}"
     );
     // No channels.

@@ -6,12 +6,18 @@
 //!
 //! - [`rng`]: SplitMix64, the seeded generator of every reproducible noise (the rig's sensor
 //!   and link noise, identification's excitations, the tests' synthetic records).
+//! - [`expm`]: the matrix exponential (`e^{sM} − I`, scaling and squaring): the rig's exact
+//!   linear steps and the zero-order-hold discretisation.
 //! - [`filter`]: Butterworth low-pass sections (bilinear, pre-warped), causal or zero-phase:
 //!   the rig's in-band comparisons, the generated road noise, diagnosis' differentiation
 //!   filters.
+//! - [`interpolate`]: a uniformly sampled signal at a fractional sample index (input delays of
+//!   the effect laws and of diagnosis).
 //! - [`record`]: the CSV reader of every record and table (comma, semicolon or tab; units in
 //!   the header; decimal commas; comment lines) and the one time-base rule.
 
+pub mod expm;
 pub mod filter;
+pub mod interpolate;
 pub mod record;
 pub mod rng;

@@ -4,11 +4,10 @@
 //!   spool saturation, orifice flow, chamber compressibility, friction, load cell and its
 //!   analogue force loop, supply pressure), which linearises to
 //!   [`mil_analysis::ServoHydraulicActuator`]'s `p_f(s)`, `r_f(s)`.
-//! - [`effects`]: force elements (spring-damper between two points) with switchable
-//!   physical effects (lift-off, Coulomb friction, cubic stiffness, bump stop, free play,
-//!   quadratic and asymmetric damping, Bouc-Wen hysteresis), off by default.
 //! - [`specimen`]: mass-spring-damper specimens (the paper's quarter car and half car, or
-//!   any other) made of DOFs and elements, with the actuators' attachment points.
+//!   any other) made of DOFs and force elements, with the actuators' attachment points. An
+//!   element's law and effects are `mil-structure`'s ([`mil_structure::Element`]), the
+//!   vocabulary and laws diagnosis fits.
 //! - [`plant`]: a specimen driven by the actuators (the MiL rig) or by an ideal interface
 //!   (the emulated system), integrated by fixed-step RK4.
 //! - [`sensors`] and [`link`]: measurement noise, quantisation and bandwidth; the CAN link
@@ -19,7 +18,6 @@
 //!   model-core's general substructure model.
 //! - [`metrics`]: MiL-vs-emulated error figures (J1–J3 of the real-time hybrid simulation
 //!   benchmark).
-//! - [`rng`]: the deterministic random generator behind every noise source.
 //!
 //! SI units throughout; positions and forces up positive.
 
@@ -28,7 +26,6 @@
 pub const DEFAULT_INTERNAL_STEP_S: f64 = 100e-6;
 
 pub mod actuator;
-pub mod effects;
 pub mod harness;
 pub mod link;
 pub mod metrics;

@@ -33,8 +33,8 @@
 //! [`Plant::step_counts`] counts both kinds of step.
 
 use crate::actuator::{ForceActuator, ACTUATOR_STATES};
-use crate::effects::{Effects, Element};
 use crate::specimen::{Specimen, SpecimenError};
+use mil_structure::CompiledLaw;
 
 /// The forces an ideal interface (the emulated system's numerical part, coupled without
 /// actuators, delay or sampling) applies at the attachment points.
@@ -117,8 +117,13 @@ pub struct StepCounts {
 enum ElementLaw {
     /// `preload + k x + c v` (no effects).
     Linear { k: f64, c: f64, preload: f64 },
-    /// [`Element::force`] and [`Element::state_rate`].
-    General,
+    /// `preload` plus the element's law (`mil-structure`'s, unpacked), with `states`
+    /// internal states (the hysteretic deflection).
+    General {
+        law: CompiledLaw,
+        preload: f64,
+        states: usize,
+    },
 }
 
 /// Size of the fixed-size derivative kernel: specimens of up to this many DOFs and road
@@ -293,10 +298,9 @@ struct LinearModel<const R: usize> {
     /// rows are valid for `fused_period_s` (cleared when used).
     sampled: [f64; R],
     sample_pending: bool,
-    // Scratch of the matrix exponential (cols × cols each).
+    // The matrix exponential (cols × cols) and its scratch.
     exp: Vec<f64>,
-    term: Vec<f64>,
-    product: Vec<f64>,
+    expm_scratch: mil_numerics::expm::ExpmScratch,
 }
 
 /// The sizes of a [`LinearModel`]: `ξ` has `states + channels + 2 inputs + 1 = cols` entries.
@@ -352,8 +356,7 @@ impl LinearParts {
             sampled: [0.0; R],
             sample_pending: false,
             exp: vec![0.0; cols * cols],
-            term: vec![0.0; cols * cols],
-            product: vec![0.0; cols * cols],
+            expm_scratch: Default::default(),
             parts: self,
         };
         model.set_fused(None, 0);
@@ -410,48 +413,22 @@ impl<const R: usize> LinearModel<R> {
         self.sample_pending = false;
     }
 
-    /// `e^{G h}` (row-major, un-balanced) into `exp`: scaling and squaring of a Taylor
-    /// series of degree 18 at norm <= 1/2 on the balanced generator.
+    /// `e^{G h}` (row-major, un-balanced) into `exp`: `mil_numerics::expm` (scaling and
+    /// squaring) on the balanced generator, `NaN` if it is not finite.
     fn exponential(&mut self, h: f64) {
         let p = self.parts.shape.cols;
-        let generator = &self.parts.generator;
-        let norm = (0..p)
-            .map(|j| {
-                (0..p)
-                    .map(|i| generator.get(i * p + j).map_or(0.0, |v| (v * h).abs()))
-                    .sum::<f64>()
-            })
-            .fold(0.0_f64, f64::max);
-        let mut squarings = 0;
-        let mut scale = h;
-        let mut reduced = norm;
-        while reduced > 0.5 && squarings < 200 {
-            reduced *= 0.5;
-            scale *= 0.5;
-            squarings += 1;
+        if !mil_numerics::expm::expm_minus_identity(
+            &self.parts.generator,
+            p,
+            h,
+            &mut self.exp,
+            &mut self.expm_scratch,
+        ) {
+            self.exp.fill(f64::NAN);
+            return;
         }
-        // exp = term = I.
-        for (i, (e, t)) in self.exp.iter_mut().zip(self.term.iter_mut()).enumerate() {
-            let v = if i % (p + 1) == 0 { 1.0 } else { 0.0 };
-            *e = v;
-            *t = v;
-        }
-        for k in 1..=18 {
-            matmul(&self.term, generator, p, &mut self.product);
-            let f = scale / f64::from(k);
-            for ((t, pr), e) in self
-                .term
-                .iter_mut()
-                .zip(&self.product)
-                .zip(self.exp.iter_mut())
-            {
-                *t = pr * f;
-                *e += *t;
-            }
-        }
-        for _ in 0..squarings {
-            matmul(&self.exp, &self.exp, p, &mut self.product);
-            std::mem::swap(&mut self.exp, &mut self.product);
+        for e in self.exp.iter_mut().step_by(p + 1) {
+            *e += 1.0;
         }
         // Un-balance in place: e^{Gh} = D (balanced exponential) D⁻¹.
         for i in 0..p {
@@ -1007,18 +984,31 @@ impl Plant {
             .elements
             .iter()
             .map(|e| {
-                if e.element.is_linear() {
-                    ElementLaw::Linear {
-                        k: e.element.stiffness_n_per_m,
-                        c: e.element.damping_n_s_per_m,
-                        preload: e.element.preload_n,
-                    }
-                } else {
-                    ElementLaw::General
+                let el = &e.element;
+                if el.is_linear() {
+                    return Ok(ElementLaw::Linear {
+                        k: el.stiffness_n_per_m,
+                        c: el.damping_n_s_per_m,
+                        preload: el.preload_n,
+                    });
                 }
+                let law = el
+                    .law()
+                    .map_err(|x| SpecimenError(format!("element {:?}: {x}", e.name)))?;
+                Ok(ElementLaw::General {
+                    law: CompiledLaw::new(&law),
+                    preload: el.preload_n,
+                    states: law.states(),
+                })
             })
-            .collect();
-        let element_states = specimen.elements.iter().map(|e| e.element.states()).sum();
+            .collect::<Result<Vec<_>, SpecimenError>>()?;
+        let element_states = laws
+            .iter()
+            .map(|l| match l {
+                ElementLaw::General { states, .. } => *states,
+                ElementLaw::Linear { .. } => 0,
+            })
+            .sum();
         let actuator_states = match &drive {
             Drive::Actuators(a) => a.len() * ACTUATOR_STATES,
             Drive::Ideal(_) => 0,
@@ -1078,16 +1068,6 @@ impl Plant {
         Ok(plant)
     }
 
-    /// Whether element `e` is affine while its force is not negative: no effect but
-    /// lift-off.
-    fn piecewise_linear(e: &Element) -> bool {
-        e.effects
-            == Effects {
-                lift_off: e.effects.lift_off,
-                ..Effects::default()
-            }
-    }
-
     /// The affine model of a piecewise-linear plant (`None` otherwise).
     fn linear_model(&self) -> Option<Linear> {
         if self.element_states > 0
@@ -1095,7 +1075,7 @@ impl Plant {
                 .specimen
                 .elements
                 .iter()
-                .all(|e| Self::piecewise_linear(&e.element))
+                .all(|e| e.element.is_piecewise_linear())
         {
             return None;
         }
@@ -1228,7 +1208,7 @@ impl Plant {
             let ve = dot(&e.dof_coefficients, qd) + dot(&e.input_coefficients, w_dot);
             let f =
                 el.stiffness_n_per_m * xe + el.damping_n_s_per_m * ve + constants * el.preload_n;
-            if el.effects.lift_off {
+            if el.lifts_off() {
                 quantities.push(f);
                 tests.push(RegimeTest::NonNegative);
             }
@@ -1402,18 +1382,16 @@ impl Plant {
         // Accelerations: static forces, elements.
         let mut accel = fx.inv_mass_static;
         let mut zi = 0;
-        for ((((e, law), a), b), m) in self
-            .specimen
-            .elements
+        for (((law, a), b), m) in self
+            .laws
             .iter()
-            .zip(&self.laws)
             .zip(&fx.element_dofs)
             .zip(&fx.element_inputs)
             .zip(&fx.inv_mass_elements)
         {
             let xe = dot4(a, &q4) + dot4(b, &road);
             let ve = dot4(a, &qd4) + dot4(b, &road_rate);
-            let f = element_force(*law, &e.element, xe, ve, zs, &mut zi, out, 2 * n);
+            let f = element_force(law, xe, ve, zs, &mut zi, out, 2 * n);
             for (acc, mi) in accel.iter_mut().zip(m) {
                 *acc -= mi * f;
             }
@@ -1477,7 +1455,7 @@ impl Plant {
         // Accelerations: static forces, elements (`M⁻¹ a_e` precomputed).
         copy(&mut self.accel, &self.inv_mass_static);
         let mut zi = 0;
-        for (i, (e, law)) in self.specimen.elements.iter().zip(&self.laws).enumerate() {
+        for (i, law) in self.laws.iter().enumerate() {
             let a = row(&self.element_dofs, i, n);
             let (mut xe, mut ve) = (dot(a, q), dot(a, qd));
             if inputs > 0 {
@@ -1485,7 +1463,7 @@ impl Plant {
                 xe += dot(b, &self.road);
                 ve += dot(b, &self.road_rate);
             }
-            let f = element_force(*law, &e.element, xe, ve, zs, &mut zi, out, 2 * n);
+            let f = element_force(law, xe, ve, zs, &mut zi, out, 2 * n);
             for (acc, m) in self
                 .accel
                 .iter_mut()
@@ -1776,11 +1754,9 @@ impl Plant {
 /// Force (N) of one element at compression `xe` (m) and rate `ve` (m/s) by its law; an
 /// element with an internal state takes it from `zs[*zi]`, writes its rate into
 /// `out[states_at + *zi]` and advances `*zi`.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 fn element_force(
-    law: ElementLaw,
-    element: &Element,
+    law: &ElementLaw,
     xe: f64,
     ve: f64,
     zs: &[f64],
@@ -1791,16 +1767,20 @@ fn element_force(
     match law {
         // The order of `Element::force`: k x, + c v, + preload.
         ElementLaw::Linear { k, c, preload } => k * xe + c * ve + preload,
-        ElementLaw::General => {
-            if element.states() > 0 {
+        ElementLaw::General {
+            law,
+            preload,
+            states,
+        } => {
+            if *states > 0 {
                 let z = zs.get(*zi).copied().unwrap_or(0.0);
                 if let Some(rate) = out.get_mut(states_at + *zi) {
-                    *rate = element.state_rate(xe, ve, z);
+                    *rate = law.state_rate(xe, ve, z);
                 }
-                *zi += element.states();
-                element.force(xe, ve, z)
+                *zi += states;
+                preload + law.force(xe, ve, z)
             } else {
-                element.force(xe, ve, 0.0)
+                preload + law.force(xe, ve, 0.0)
             }
         }
     }

@@ -6,11 +6,11 @@
 //! counterpart.
 
 use crate::actuator::ForceActuator;
-use crate::effects::{Effects, Element};
 use crate::harness::RigPart;
 use crate::plant::{AffineInterface, IdealInterface, Plant};
 use crate::specimen::{Specimen, SpecimenError};
 use mil_analysis::examples::{AeroExample, TyreExample};
+use mil_structure::{CompiledLaw, EffectKind, Element};
 use model_core::aero::MAP_POINTS;
 use model_core::{
     AeroModel, AeroParams, CascadeCoefficients, Causality, Controller, ControllerParams,
@@ -24,7 +24,32 @@ use model_core::{
 #[derive(Clone, Debug, PartialEq)]
 pub struct IdealTyre {
     /// The tyre element per channel (preload: the static wheel load, N).
-    pub tyres: Vec<Element>,
+    tyres: Vec<Element>,
+    /// Their laws, unpacked once.
+    laws: Vec<CompiledLaw>,
+}
+
+impl IdealTyre {
+    /// The ideal interface of `tyres` (one per channel).
+    ///
+    /// # Errors
+    /// An element whose law does not validate, named by its channel.
+    pub fn new(tyres: Vec<Element>) -> Result<Self, SpecimenError> {
+        let laws = tyres
+            .iter()
+            .enumerate()
+            .map(|(j, t)| {
+                t.compile()
+                    .map_err(|e| SpecimenError(format!("tyre of channel {j}: {e}")))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Self { tyres, laws })
+    }
+
+    /// The tyre element per channel.
+    pub fn tyres(&self) -> &[Element] {
+        &self.tyres
+    }
 }
 
 impl IdealInterface for IdealTyre {
@@ -42,13 +67,7 @@ impl IdealInterface for IdealTyre {
                 })
                 .collect()
         };
-        let affine = self.tyres.iter().all(|t| {
-            t.effects
-                == Effects {
-                    lift_off: t.effects.lift_off,
-                    ..Effects::default()
-                }
-        });
+        let affine = self.tyres.iter().all(Element::is_piecewise_linear);
         affine.then(|| AffineInterface {
             offset_n: self.tyres.iter().map(|t| t.preload_n).collect(),
             position_n_per_m: diagonal(&|t| -t.stiffness_n_per_m),
@@ -59,7 +78,7 @@ impl IdealInterface for IdealTyre {
                 .tyres
                 .iter()
                 .map(|t| {
-                    if t.effects.lift_off {
+                    if t.lifts_off() {
                         0.0
                     } else {
                         f64::NEG_INFINITY
@@ -77,10 +96,11 @@ impl IdealInterface for IdealTyre {
         road_rate: &[f64],
         forces: &mut [f64],
     ) {
-        for (j, (tyre, f)) in self.tyres.iter().zip(forces.iter_mut()).enumerate() {
+        let tyres = self.tyres.iter().zip(&self.laws);
+        for (j, ((tyre, law), f)) in tyres.zip(forces.iter_mut()).enumerate() {
             let x = road.get(j).copied().unwrap_or(0.0) - y.get(j).copied().unwrap_or(0.0);
             let v = road_rate.get(j).copied().unwrap_or(0.0) - y_dot.get(j).copied().unwrap_or(0.0);
-            *f = tyre.force(x, v, 0.0);
+            *f = tyre.preload_n + law.force(x, v, 0.0);
         }
     }
 }
@@ -112,7 +132,7 @@ pub fn quarter_car_part(
         mil: Plant::with_actuators(specimen, vec![actuator], internal_step_s)?,
         emulated: Plant::with_ideal_interface(
             emulated_specimen,
-            Box::new(IdealTyre { tyres: vec![tyre] }),
+            Box::new(IdealTyre::new(vec![tyre])?),
             internal_step_s,
         )?,
         first_channel: channel,
@@ -124,12 +144,13 @@ pub fn quarter_car_part(
 /// The emulated tyre element of model-core's tyre parameters: `k_t`, `c_t`, the static
 /// wheel load as preload, lift-off as the board's tyre has it.
 pub fn ideal_tyre(params: &TyreParams) -> Element {
-    Element::linear(f64::from(params.stiffness), f64::from(params.damping))
-        .with_preload(f64::from(params.static_load))
-        .with_effects(Effects {
-            lift_off: params.lift_off != 0,
-            ..Effects::default()
-        })
+    let tyre = Element::linear(f64::from(params.stiffness), f64::from(params.damping))
+        .with_preload(f64::from(params.static_load));
+    if params.lift_off != 0 {
+        tyre.with(EffectKind::LiftOff, &[])
+    } else {
+        tyre
+    }
 }
 
 /// The board's controller for one tyre channel at `sample_rate_hz` (Hz): model-core's tyre
@@ -730,15 +751,7 @@ pub fn substructure_part<const CH: usize>(
             specimen.inputs.len()
         )));
     }
-    let imbalance = specimen.static_imbalance(&[0.0; CH]);
-    if let Some((dof, f)) = imbalance.iter().enumerate().find(|(_, f)| f.abs() > 1e-6) {
-        return Err(SpecimenError(format!(
-            "not at rest with zero actuator force (the substructure's static demand): \
-             generalised force {f:.6} N on DOF {:?}; balance static_force with the elements' \
-             preloads",
-            specimen.dofs[dof]
-        )));
-    }
+    specimen.check_at_rest(&[0.0; CH])?;
     let law = IdealSubstructure::new(params, specimen.inputs.len())?;
     let (np, nn) = (specimen.len(), params.dof as usize);
     let pad = |v: &[f64], extra: usize| -> Vec<f64> {

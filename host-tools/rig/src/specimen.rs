@@ -2,7 +2,7 @@
 //! actuators' attachment points and the road inputs.
 //!
 //! A specimen has `n` generalised DOFs `q` (m or rad, deviations from the static
-//! equilibrium), a constant mass matrix `M`, force elements ([`crate::effects::Element`])
+//! equilibrium), a constant mass matrix `M`, force elements ([`mil_structure::Element`])
 //! and constant generalised static forces `g` (gravity). Element `e` is placed by two
 //! coefficient vectors: its compression is `x_e = a_e · q + b_e · w` (m) with `w` the road
 //! inputs (m), its compression rate `a_e · q̇ + b_e · ẇ`, and its force `F_e` (pushing its
@@ -22,8 +22,9 @@
 //! its half car on a four-poster with down-force actuators ([`Specimen::half_car`]); any
 //! other structure can be described directly (a general mass-spring-damper specimen).
 
-use crate::effects::Element;
 use mil_analysis::examples::{AeroExample, TyreExample};
+use mil_structure::model::InputKind;
+use mil_structure::{Element, Model};
 use serde::{Deserialize, Serialize};
 
 /// Standard gravity (m/s²).
@@ -94,6 +95,66 @@ impl Specimen {
             inputs: vec![],
             attachments: vec![vec![0.0, 1.0]],
         }
+    }
+
+    /// The specimen of a structure file ([`mil_structure::Model`]): its DOFs and masses, its
+    /// weights as static forces, its elements with their laws, effects and preloads, its
+    /// displacement inputs as road inputs, and one actuator per entry of `attach`, driving
+    /// that DOF or point along its positive direction. A DOF's `bias_n` (the constant offset
+    /// a record's fit carries, e.g. a load cell's zero error) is not a load on the rig and is
+    /// left out: the specimen starts at rest at its equilibrium.
+    ///
+    /// # Errors
+    /// An attachment that is no DOF or point, an input effect (the rig simulates element
+    /// effects; an input's delay or limits belong to what drives it).
+    pub fn from_structure(model: &Model, attach: &[String]) -> Result<Self, SpecimenError> {
+        let displacement: Vec<usize> = (0..model.inputs.len())
+            .filter(|&j| model.inputs[j].kind == InputKind::Displacement)
+            .collect();
+        if let Some(i) = model.inputs.iter().find(|i| !i.law.kinds().is_empty()) {
+            return Err(SpecimenError(format!(
+                "input {:?} has effects ({:?}): the rig simulates element effects only",
+                i.name,
+                i.law.kinds()
+            )));
+        }
+        let attachments = attach
+            .iter()
+            .map(|name| {
+                model.position_of(name).ok_or_else(|| {
+                    SpecimenError(format!(
+                        "attachment {name:?} is no DOF or point of the structure (DOFs: {:?})",
+                        model.dofs
+                    ))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            dofs: model.dofs.clone(),
+            mass: (0..model.n())
+                .map(|i| {
+                    (0..model.n())
+                        .map(|j| if i == j { model.mass[i] } else { 0.0 })
+                        .collect()
+                })
+                .collect(),
+            static_force: model.static_force.clone(),
+            elements: model
+                .elements
+                .iter()
+                .map(|e| PlacedElement {
+                    name: e.name.clone(),
+                    element: Element::from_law(&e.law, e.preload_n),
+                    dof_coefficients: e.a.clone(),
+                    input_coefficients: displacement.iter().map(|&j| e.b[j]).collect(),
+                })
+                .collect(),
+            inputs: displacement
+                .iter()
+                .map(|&j| model.inputs[j].name.clone())
+                .collect(),
+            attachments,
+        })
     }
 
     /// The paper's suspension of the quarter car: linear `k_c`, `c_c` (effects off).
@@ -171,7 +232,7 @@ impl Specimen {
     pub fn static_imbalance(&self, interface_forces: &[f64]) -> Vec<f64> {
         let mut g = self.static_force.clone();
         for e in &self.elements {
-            let f = e.element.force(0.0, 0.0, 0.0);
+            let f = e.element.force(0.0, 0.0, 0.0).unwrap_or(f64::NAN);
             for (gi, a) in g.iter_mut().zip(&e.dof_coefficients) {
                 *gi -= a * f;
             }
@@ -182,6 +243,32 @@ impl Specimen {
             }
         }
         g
+    }
+
+    /// Checks that the specimen is at rest at `q = 0` with the actuators applying
+    /// `interface_forces` (N per attachment; zero: the substructure's static demand): every
+    /// DOF's static imbalance within 1e-6 N (N·m).
+    ///
+    /// # Errors
+    /// The first DOF out of balance, with its generalised force.
+    pub fn check_at_rest(&self, interface_forces: &[f64]) -> Result<(), SpecimenError> {
+        let imbalance = self.static_imbalance(interface_forces);
+        match imbalance
+            .iter()
+            .zip(&self.dofs)
+            .find(|(f, _)| f.abs() > 1e-6)
+        {
+            Some((f, dof)) => Err(SpecimenError(format!(
+                "not at rest with {}: generalised force {f:.6} N on DOF {dof:?}; balance the \
+                 static forces with the elements' preloads",
+                if interface_forces.iter().all(|f| *f == 0.0) {
+                    "zero actuator force".to_string()
+                } else {
+                    format!("the actuators' static forces {interface_forces:?} N")
+                }
+            ))),
+            None => Ok(()),
+        }
     }
 
     /// Checks dimensions, finiteness, a positive definite mass matrix and every element.
@@ -254,5 +341,69 @@ mod tests {
         let without = s.static_imbalance(&[0.0]);
         assert!(without[0].abs() < 1e-9, "{without:?}");
         assert!((without[1] + weight).abs() < 1e-9, "{without:?}");
+    }
+
+    /// A structure file becomes the specimen written by hand: the 2-DOF example's physical
+    /// mass on its spring to the bed, gravity carried by the spring's preload.
+    #[test]
+    fn a_structure_file_is_the_specimen_written_out() {
+        let model = Model::from_toml(
+            r#"
+name = "physical part"
+gravity_m_per_s2 = 9.81
+[[dof]]
+name = "x_p"
+mass = 5.0
+[[element]]
+name = "k_p"
+upper = "x_p"
+lower = "ground"
+stiffness_n_per_m = 2.0e4
+damping_n_s_per_m = 10.0
+"#,
+        )
+        .unwrap();
+        let s = Specimen::from_structure(&model, &["x_p".to_string()]).unwrap();
+        let by_hand = Specimen {
+            dofs: vec!["x_p".into()],
+            mass: vec![vec![5.0]],
+            static_force: vec![-5.0 * 9.81],
+            elements: vec![PlacedElement {
+                name: "k_p".into(),
+                element: Element::linear(2.0e4, 10.0).with_preload(5.0 * 9.81),
+                dof_coefficients: vec![-1.0],
+                input_coefficients: vec![],
+            }],
+            inputs: vec![],
+            attachments: vec![vec![1.0]],
+        };
+        assert_eq!(s, by_hand);
+        assert!(s.static_imbalance(&[0.0]).iter().all(|f| f.abs() < 1e-9));
+        let e = Specimen::from_structure(&model, &["x_q".to_string()]).unwrap_err();
+        assert!(e.0.contains("x_q"), "{e}");
+    }
+
+    /// The quarter car on a road post with a lift-off tyre: at rest with no actuator force,
+    /// the road an input of the tyre only, the tyre's preload the car's weight.
+    #[test]
+    fn a_quarter_car_structure_stands_on_its_road() {
+        let text = format!(
+            "{}\n[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\n",
+            include_str!("../../diagnose/examples/tyre.toml").replace(
+                "name = \"quarter car\"",
+                "name = \"quarter car\"\ngravity_m_per_s2 = 9.81"
+            )
+        );
+        let model = Model::from_toml(&text).unwrap();
+        let s = Specimen::from_structure(&model, &["x_s".to_string()]).unwrap();
+        s.validate().unwrap();
+        assert_eq!(s.inputs, vec!["road".to_string()]);
+        assert!(s.static_imbalance(&[0.0]).iter().all(|f| f.abs() < 1e-9));
+        let tyre = &s.elements[1];
+        assert_eq!(tyre.input_coefficients, vec![1.0]);
+        assert!(tyre.element.lifts_off());
+        assert!((tyre.element.preload_n - 170.0 * 9.81).abs() < 1e-9);
+        // Far above the road the tyre carries nothing.
+        assert_eq!(tyre.element.force(-1.0, 0.0, 0.0).unwrap(), 0.0);
     }
 }

@@ -15,13 +15,26 @@ use mil_analysis::examples::TyreExample;
 use mil_analysis::ServoHydraulicActuator;
 use mil_identify::band_limited_noise;
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
-use mil_rig::effects::{BumpStop, CubicStiffness, Effects};
 use mil_rig::harness::{run, Histories, Instrumentation, LinkStatistics};
 use mil_rig::link::LinkSpec;
 use mil_rig::rigs::{ideal_tyre, quarter_car_part, tyre_controller, tyre_input};
 use mil_rig::specimen::Specimen;
+use mil_structure::{EffectKind, Parameters};
 use model_core::{fault, DemandLimits, Mode, TyreParams};
+use std::collections::BTreeMap;
 use std::f64::consts::TAU;
+
+/// An element's effects by kind, with their parameters.
+type Effects = BTreeMap<EffectKind, Parameters>;
+
+/// The single effect `kind` with `parameters` (SI names).
+fn effect(kind: EffectKind, parameters: &[(&str, f64)]) -> Effects {
+    let parameters = parameters
+        .iter()
+        .map(|(name, value)| (name.to_string(), *value))
+        .collect();
+    BTreeMap::from([(kind, parameters)])
+}
 
 const FS: f64 = 2000.0;
 const DT: f64 = 1.0 / FS;
@@ -50,7 +63,7 @@ impl Default for Config {
         Self {
             instrumentation: Instrumentation::default(),
             actuator: ActuatorEffects::default(),
-            suspension: Effects::default(),
+            suspension: Effects::new(),
             tyre: TyreParams::PAPER,
             limits: WIDE,
         }
@@ -60,7 +73,8 @@ impl Default for Config {
 fn simulate(road: &[f64], config: &Config) -> (Histories, LinkStatistics) {
     let car = TyreExample::default();
     let actuator = ForceActuator::new(ServoHydraulicActuator::REFERENCE, config.actuator).unwrap();
-    let suspension = Specimen::quarter_car_suspension(&car).with_effects(config.suspension);
+    let mut suspension = Specimen::quarter_car_suspension(&car);
+    suspension.effects = config.suspension.clone();
     let mut parts = vec![quarter_car_part(
         &car,
         suspension,
@@ -896,29 +910,23 @@ fn suspension_hardening() {
     let variants = [
         (
             "bump stop",
-            Effects {
-                bump_stop: Some(BumpStop {
-                    gap_m: 5e-3,
-                    stiffness_n_per_m: 5.0 * k_c,
-                    rebound_gap_m: None,
-                }),
-                ..Effects::default()
-            },
+            effect(
+                EffectKind::BumpStop,
+                &[("gap_m", 5e-3), ("stiffness_n_per_m", 5.0 * k_c)],
+            ),
         ),
         (
             "cubic",
-            Effects {
-                cubic_stiffness: Some(CubicStiffness {
-                    stiffness_n_per_m3: k_c / (10e-3f64).powi(2),
-                }),
-                ..Effects::default()
-            },
+            effect(
+                EffectKind::CubicStiffness,
+                &[("stiffness_n_per_m3", k_c / (10e-3f64).powi(2))],
+            ),
         ),
     ];
     let small = bump(1.0, 0.1, 0.05, 2e-3);
     let linear = simulate(&small, &Config::default()).0;
     let variation = max_of(&linear.mil_force[0]) - min_of(&linear.mil_force[0]);
-    for (name, effects) in variants {
+    for (name, effects) in variants.clone() {
         let h = simulate(
             &small,
             &Config {

@@ -11,11 +11,11 @@ use mil_analysis::examples::TyreExample;
 use mil_analysis::ServoHydraulicActuator;
 use mil_identify::band_limited_noise;
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
-use mil_rig::effects::{Effects, Element};
 use mil_rig::harness::{run, Histories, Instrumentation};
 use mil_rig::plant::Plant;
 use mil_rig::rigs::{ideal_tyre, paper_tyre_part, tyre_controller, tyre_input, IdealTyre};
 use mil_rig::specimen::Specimen;
+use mil_structure::{EffectKind, Element};
 use model_core::{DemandLimits, TyreParams};
 
 const REFERENCE_STEP_S: f64 = 2e-6;
@@ -97,7 +97,7 @@ fn tyre_rig_at_5_khz_against_a_2_us_reference() {
 }
 
 /// The emulated quarter car on the rigs' ideal tyre (affine while on the road).
-fn emulated_quarter_car(tyre: Element, internal_step_s: f64) -> Plant {
+fn emulated_quarter_car(tyre: &Element, internal_step_s: f64) -> Plant {
     let car = TyreExample::default();
     let mut specimen = Specimen::quarter_car(&car, Specimen::quarter_car_suspension(&car));
     specimen.inputs = vec!["road".into()];
@@ -106,7 +106,7 @@ fn emulated_quarter_car(tyre: Element, internal_step_s: f64) -> Plant {
     }
     Plant::with_ideal_interface(
         specimen,
-        Box::new(IdealTyre { tyres: vec![tyre] }),
+        Box::new(IdealTyre::new(vec![tyre.clone()]).unwrap()),
         internal_step_s,
     )
     .unwrap()
@@ -154,11 +154,11 @@ fn exact_steps_through_lift_off_match_rk4() {
         .map(|k| 12e-3 * (std::f64::consts::TAU * 15.0 * k as f64 / fs).sin())
         .collect();
     let tyre = ideal_tyre(&TyreParams::PAPER);
-    assert!(tyre.effects.lift_off);
+    assert!(tyre.lifts_off());
     let no_demand = |_| 0.0;
     let reference = drive(
         &mut {
-            let mut p = emulated_quarter_car(tyre, REFERENCE_STEP_S);
+            let mut p = emulated_quarter_car(&tyre, REFERENCE_STEP_S);
             p.set_exact_steps(false);
             p
         },
@@ -172,10 +172,10 @@ fn exact_steps_through_lift_off_match_rk4() {
         "the road must lift the wheel off"
     );
     for step in [100e-6, 200e-6] {
-        let mut plain = emulated_quarter_car(tyre, step);
+        let mut plain = emulated_quarter_car(&tyre, step);
         plain.set_exact_steps(false);
         let plain_force = drive(&mut plain, fs, samples, no_demand, &road);
-        let mut exact = emulated_quarter_car(tyre, step);
+        let mut exact = emulated_quarter_car(&tyre, step);
         assert!(exact.has_exact_steps());
         let exact_force = drive(&mut exact, fs, samples, no_demand, &road);
         let counts = exact.step_counts();
@@ -196,13 +196,13 @@ fn exact_steps_through_lift_off_match_rk4() {
     // Without lift-off the same tyre is linear everywhere: every step exact, and equal to
     // the reference to well below RK4's error.
     let linear = Element {
-        effects: Effects::default(),
+        effects: Default::default(),
         ..tyre
     };
-    let mut plain = emulated_quarter_car(linear, REFERENCE_STEP_S);
+    let mut plain = emulated_quarter_car(&linear, REFERENCE_STEP_S);
     plain.set_exact_steps(false);
     let reference = drive(&mut plain, fs, samples, no_demand, &road);
-    let mut exact = emulated_quarter_car(linear, 200e-6);
+    let mut exact = emulated_quarter_car(&linear, 200e-6);
     let exact_force = drive(&mut exact, fs, samples, no_demand, &road);
     assert_eq!(exact.step_counts().rk4, 0);
     let e = relative_error(&exact_force, &reference);
@@ -292,10 +292,8 @@ fn nonlinear_plants_take_rk4_steps() {
     let part = paper_tyre_part(100e-6).unwrap();
     assert!(part.mil.has_exact_steps());
     assert!(part.emulated.has_exact_steps());
-    let mut tyre = mil_rig::rigs::ideal_tyre(&model_core::TyreParams::PAPER);
-    tyre.effects.cubic_stiffness = Some(mil_rig::effects::CubicStiffness {
-        stiffness_n_per_m3: 1e9,
-    });
+    let tyre = mil_rig::rigs::ideal_tyre(&model_core::TyreParams::PAPER)
+        .with(EffectKind::CubicStiffness, &[("stiffness_n_per_m3", 1e9)]);
     let reference = ForceActuator::new(
         ServoHydraulicActuator::REFERENCE,
         ActuatorEffects::default(),

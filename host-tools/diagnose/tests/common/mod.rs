@@ -8,9 +8,28 @@
 
 use mil_diagnose::{diagnose, Diagnosis, EffectKind, Model, Options, Record};
 use mil_numerics::rng::SplitMix64;
-use mil_rig::effects::{Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
 use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
+use mil_structure::{Element, Parameters};
+use std::collections::BTreeMap;
+
+/// The effects switched on in a simulated element: parameters (SI names) by effect, as in
+/// [`mil_structure::Element::effects`].
+pub type Effects = BTreeMap<EffectKind, Parameters>;
+
+/// The effects `list` (each effect with its parameters by SI name, see [`EffectKind`]); an
+/// empty list is the linear element.
+pub fn effects(list: &[(EffectKind, &[(&str, f64)])]) -> Effects {
+    list.iter()
+        .map(|(kind, parameters)| {
+            let parameters = parameters
+                .iter()
+                .map(|(name, value)| (name.to_string(), *value))
+                .collect();
+            (*kind, parameters)
+        })
+        .collect()
+}
 
 /// Oscillator mass (kg).
 pub const MASS: f64 = 2.0;
@@ -64,7 +83,10 @@ pub fn oscillator_plant_of(mass: f64, k: f64, c: f64, effects: Effects) -> Plant
         static_force: vec![0.0],
         elements: vec![PlacedElement {
             name: "spring".into(),
-            element: Element::linear(k, c).with_effects(effects),
+            element: Element {
+                effects,
+                ..Element::linear(k, c)
+            },
             // Compression: the mass moving down towards the ground.
             dof_coefficients: vec![-1.0],
             input_coefficients: vec![0.0],
@@ -250,15 +272,13 @@ impl IdealInterface for NoForce {
 /// The wheel ([`WHEEL_MASS`] on the tyre, static load `m g`) driven by `road` (m) through a
 /// displacement input, from rest: its displacement (m) and the fraction of the samples in
 /// which the tyre would pull (the linear tyre force below zero). With `lift_off` the tyre
-/// can only push (`mil_rig`'s `lift_off`), without it the tyre is linear.
+/// can only push (`mil_structure`'s `lift_off`), without it the tyre is linear.
 pub fn wheel_response(road: &[f64], lift_off: bool) -> (Vec<f64>, f64) {
     let g = GRAVITY_M_PER_S2;
-    let tyre = Element::linear(TYRE_K, TYRE_C)
-        .with_preload(WHEEL_MASS * g)
-        .with_effects(Effects {
-            lift_off,
-            ..Effects::default()
-        });
+    let mut tyre = Element::linear(TYRE_K, TYRE_C).with_preload(WHEEL_MASS * g);
+    if lift_off {
+        tyre = tyre.with(EffectKind::LiftOff, &[]);
+    }
     let specimen = Specimen {
         dofs: vec!["x".into()],
         mass: vec![vec![WHEEL_MASS]],

@@ -10,9 +10,9 @@
 
 use mil_diagnose::Record;
 use mil_numerics::rng::SplitMix64;
-use mil_rig::effects::{AsymmetricDamping, Effects, Element};
 use mil_rig::plant::{AffineInterface, IdealInterface, Plant};
 use mil_rig::specimen::{PlacedElement, Specimen, GRAVITY_M_PER_S2};
+use mil_structure::{EffectKind, Element};
 
 /// Record sample rate (Hz).
 pub const FS: f64 = 1000.0;
@@ -86,20 +86,16 @@ pub fn quarter_car_record(road: &[f64], seed: u64) -> Record {
     let g = GRAVITY_M_PER_S2;
     let suspension = Element::linear(K_C, 0.5 * (C_BUMP + C_REBOUND))
         .with_preload(M_S * g)
-        .with_effects(Effects {
-            asymmetric_damping: Some(AsymmetricDamping {
-                bump_n_s_per_m: C_BUMP,
-                rebound_n_s_per_m: C_REBOUND,
-            }),
-            ..Effects::default()
-        });
+        .with(
+            EffectKind::AsymmetricDamping,
+            &[("bump_n_s_per_m", C_BUMP), ("rebound_n_s_per_m", C_REBOUND)],
+        );
     let tyre_preload = (M_S + M_U) * g;
     let tyre = Element::linear(K_T, C_T)
         .with_preload(tyre_preload)
-        .with_effects(Effects {
-            lift_off: true,
-            ..Effects::default()
-        });
+        .with(EffectKind::LiftOff, &[]);
+    // The tyre's law relative to its preload, unpacked once for the loop below.
+    let tyre_law = tyre.compile().expect("tyre law");
     let specimen = Specimen {
         dofs: vec!["x_s".into(), "x_u".into()],
         mass: vec![vec![M_S, 0.0], vec![0.0, M_U]],
@@ -114,7 +110,7 @@ pub fn quarter_car_record(road: &[f64], seed: u64) -> Record {
             },
             PlacedElement {
                 name: "tyre".into(),
-                element: tyre,
+                element: tyre.clone(),
                 // Compression: the road rising towards the hub.
                 dof_coefficients: vec![0.0, -1.0],
                 input_coefficients: vec![1.0],
@@ -141,7 +137,7 @@ pub fn quarter_car_record(road: &[f64], seed: u64) -> Record {
         } else {
             0.0
         };
-        let f = tyre.force(road[i] - xu, road_rate - vu, 0.0);
+        let f = tyre.preload_n + tyre_law.force(road[i] - xu, road_rate - vu, 0.0);
         if f <= 0.0 {
             airborne += 1;
         }

@@ -1,7 +1,9 @@
-//! The model file (TOML) and the validated [`Model`].
+//! The structure file (TOML) and the validated [`Model`]: one schema for the simulated rig's
+//! specimens, diagnosis' models and the analysis' mechanical parts.
 //!
 //! ```toml
 //! name = "oscillator"
+//! gravity_m_per_s2 = 9.81      # optional: gravity on the translation DOFs (up positive)
 //!
 //! [[dof]]                      # a generalised coordinate: a node's displacement (m) or a rotation (rad)
 //! name = "x"
@@ -35,6 +37,17 @@
 //! parameters = { stiffness_n_per_m3 = 1e9 }
 //! ```
 //!
+//! Effect names, parameters and laws are `mil-structure`'s ([`EffectKind`]), the ones the
+//! simulated rig runs. `lift_off` takes no parameters: the static load it lifts off from is
+//! the element's preload.
+//!
+//! Positions are deviations from the static equilibrium. The static loads are stated once:
+//! with `gravity_m_per_s2`, the translation DOFs' weights `m g` (downwards: DOFs are up
+//! positive) are carried by the elements, whose preloads follow from the linear static
+//! solution `K u = −m g` (`P_e = k_e a_e·u`, [`Model::preloads`]) unless the file states
+//! them (`preload_n` on the elements), which must then balance the weights (within 1 %).
+//! Without gravity the preloads are the stated ones (default 0).
+//!
 //! Unknown keys are errors. `gain` (default 1) scales a column into the SI quantity the model
 //! uses (`value = gain × column`) for inputs, and the model's quantity into the column for
 //! outputs (`column = gain × value`). A DOF may carry a constant generalised force `bias_n`
@@ -55,6 +68,9 @@ pub struct ModelFile {
     /// Free text.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
+    /// Gravity (m/s², >= 0) on the translation DOFs, downwards; none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity_m_per_s2: Option<f64>,
     /// Generalised coordinates (DOFs).
     #[serde(rename = "dof")]
     pub dofs: Vec<DofSpec>,
@@ -128,6 +144,10 @@ pub struct ElementSpec {
     /// Linear damping `c` (N·s/m), >= 0, default 0.
     #[serde(default)]
     pub damping_n_s_per_m: f64,
+    /// Static force (N, positive in compression) the element carries at equilibrium,
+    /// default 0; the load a `lift_off` effect lifts off from (>= 0 with it).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub preload_n: f64,
 }
 
 /// Kind of an input.
@@ -200,6 +220,83 @@ pub struct EffectSpec {
     pub parameters: BTreeMap<String, f64>,
 }
 
+/// The elements' preloads (see the module documentation): checked when stated and gravity
+/// is on, derived from the linear static solution when gravity is on and none is stated.
+fn preloads(file: &ModelFile, elements: &mut [Element], static_force: &[f64]) -> Result<()> {
+    let Some(g) = file.gravity_m_per_s2 else {
+        return Ok(());
+    };
+    let n = static_force.len();
+    let weight: f64 = static_force.iter().map(|f| f.abs()).sum();
+    if elements.iter().any(|e| e.preload_n != 0.0) {
+        for (i, name) in file.dofs.iter().map(|d| &d.name).enumerate() {
+            let carried: f64 = elements.iter().map(|e| e.a[i] * e.preload_n).sum();
+            let residual = static_force[i] - carried;
+            if residual.abs() > 0.01 * weight.max(f64::MIN_POSITIVE) {
+                let in_kg = (carried * g - static_force[i]).abs() < 0.01 * weight;
+                return Err(Error::Model(format!(
+                    "the elements' preload_n carry {:.1} N at dof {name:?}, but its weight is \
+                     {:.1} N (gravity_m_per_s2 = {g}){}: state every preload_n in N so that they \
+                     balance the weights, or leave them all out and they follow from gravity",
+                    -carried,
+                    -static_force[i],
+                    if in_kg {
+                        " -- preloads given in kg?"
+                    } else {
+                        ""
+                    }
+                )));
+            }
+        }
+        return Ok(());
+    }
+    if weight == 0.0 {
+        return Ok(());
+    }
+    let mut k = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for e in elements.iter() {
+        k += e.law.k
+            * nalgebra::DVector::from_column_slice(&e.a)
+            * nalgebra::RowDVector::from_row_slice(&e.a);
+    }
+    let Some(u) = k
+        .lu()
+        .solve(&nalgebra::DVector::from_column_slice(static_force))
+    else {
+        return Err(Error::Model(
+            "with gravity_m_per_s2 the springs must hold every DOF (the stiffness matrix is \
+             singular): add the springs that carry the weight, or state each element's \
+             preload_n"
+                .into(),
+        ));
+    };
+    for e in elements.iter_mut() {
+        e.preload_n = e.law.k * e.a.iter().zip(u.iter()).map(|(a, u)| a * u).sum::<f64>();
+    }
+    Ok(())
+}
+
+/// The linearised structure `M q̈ + C q̇ + K q = K_w w + C_w ẇ + T f + bias` about the
+/// static equilibrium, with `w` the displacement inputs and `f` the force inputs (each in
+/// the file's input order; a force input's column of `K_w`, `C_w` and a displacement
+/// input's column of `T` are zero). Elements enter with their small-signal stiffness and
+/// damping ([`ElementLaw::linearised`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Linearised {
+    /// `M` (kg, kg·m²), diagonal.
+    pub mass: nalgebra::DMatrix<f64>,
+    /// `C` (N·s/m).
+    pub damping: nalgebra::DMatrix<f64>,
+    /// `K` (N/m).
+    pub stiffness: nalgebra::DMatrix<f64>,
+    /// `K_w` (N/m), DOFs × inputs.
+    pub input_stiffness: nalgebra::DMatrix<f64>,
+    /// `C_w` (N·s/m), DOFs × inputs.
+    pub input_damping: nalgebra::DMatrix<f64>,
+    /// `T` (-), DOFs × inputs.
+    pub force_input: nalgebra::DMatrix<f64>,
+}
+
 fn one() -> f64 {
     1.0
 }
@@ -223,8 +320,11 @@ pub struct Element {
     pub a: Vec<f64>,
     /// Compression per unit of each input (m/m; 0 for force inputs).
     pub b: Vec<f64>,
-    /// Force law.
+    /// Force law (relative to the static equilibrium).
     pub law: ElementLaw,
+    /// Static force (N, compression) at equilibrium: stated, or carried weight (see the
+    /// module documentation).
+    pub preload_n: f64,
 }
 
 /// A validated input.
@@ -277,6 +377,11 @@ pub struct Model {
     pub mass: Vec<f64>,
     /// Constant generalised force per DOF (N or N·m).
     pub bias: Vec<f64>,
+    /// Kind per DOF.
+    pub kinds: Vec<DofKind>,
+    /// Static generalised force per DOF (N or N·m) the elements' preloads balance: the
+    /// weight `−m g` of translation DOFs with gravity, else 0.
+    pub static_force: Vec<f64>,
     /// Elements.
     pub elements: Vec<Element>,
     /// Inputs.
@@ -443,6 +548,12 @@ impl Model {
                     ));
                 }
             }
+            if !e.preload_n.is_finite() {
+                return err(format!(
+                    "element {:?}: preload_n must be finite, got {}",
+                    e.name, e.preload_n
+                ));
+            }
             let (au, bu) = end(&e.upper, &e.name)?;
             let (al, bl) = end(&e.lower, &e.name)?;
             let a: Vec<f64> = al.iter().zip(&au).map(|(l, u)| l - u).collect();
@@ -458,6 +569,7 @@ impl Model {
                 a,
                 b,
                 law: ElementLaw::linear(e.stiffness_n_per_m, e.damping_n_s_per_m),
+                preload_n: e.preload_n,
             });
         }
         let mut outputs = Vec::new();
@@ -495,13 +607,26 @@ impl Model {
                 gain: o.gain,
             });
         }
-        if outputs.is_empty() {
-            return err("no [[output]]: nothing to compare with".into());
-        }
+        let kinds: Vec<DofKind> = file.dofs.iter().map(|d| d.kind).collect();
+        let static_force: Vec<f64> = match file.gravity_m_per_s2 {
+            None => vec![0.0; n],
+            Some(g) if g.is_finite() && g >= 0.0 => file
+                .dofs
+                .iter()
+                .map(|d| match d.kind {
+                    DofKind::Translation => -d.mass * g,
+                    DofKind::Rotation => 0.0,
+                })
+                .collect(),
+            Some(g) => return err(format!("gravity_m_per_s2 must be >= 0, got {g}")),
+        };
+        preloads(&file, &mut elements, &static_force)?;
         let mut model = Model {
             dofs,
             mass: file.dofs.iter().map(|d| d.mass).collect(),
             bias: file.dofs.iter().map(|d| d.bias_n).collect(),
+            kinds,
+            static_force,
             elements,
             inputs,
             outputs,
@@ -568,19 +693,39 @@ impl Model {
                     fx.effect, fx.element
                 )));
             };
+            let parameters = if fx.effect == EffectKind::LiftOff {
+                // The load it lifts off from is the element's `preload_n`, stated once.
+                if let Some(key) = fx.parameters.keys().next() {
+                    return Err(Error::Model(format!(
+                        "effect lift_off on {:?} takes no parameters (got {key:?}): give the \
+                         static load as the element's preload_n",
+                        fx.element
+                    )));
+                }
+                [("preload_n".to_string(), el.preload_n)].into()
+            } else {
+                fx.parameters.clone()
+            };
             el.law.remove(fx.effect);
             el.law
-                .apply(fx.effect, &fx.parameters)
+                .apply(fx.effect, &parameters)
                 .map_err(|e| wrap(e, fx))
         }
     }
 
-    /// Every effect that is on, as file entries.
+    /// Every effect that is on, as file entries (`lift_off` without parameters: its
+    /// preload is the element's, [`Model::to_file`]).
     pub fn effect_specs(&self) -> Vec<EffectSpec> {
         let mut out = Vec::new();
         for e in &self.elements {
             for k in e.law.kinds() {
-                if let Some(p) = e.law.parameters(k) {
+                if k == EffectKind::LiftOff {
+                    out.push(EffectSpec {
+                        effect: k,
+                        element: e.name.clone(),
+                        parameters: BTreeMap::new(),
+                    });
+                } else if let Some(p) = e.law.parameters(k) {
                     out.push(EffectSpec {
                         effect: k,
                         element: e.name.clone(),
@@ -613,6 +758,37 @@ impl Model {
         for (spec, e) in f.elements.iter_mut().zip(&self.elements) {
             spec.stiffness_n_per_m = e.law.stiffness_total();
             spec.damping_n_s_per_m = e.law.c;
+            // A fitted lift-off preload is written where the file states preloads; with
+            // gravity and derived preloads the weights fix them (the fit's value is in the
+            // report).
+            if let Some(preload) = e.law.lift_off {
+                if f.gravity_m_per_s2.is_none() {
+                    spec.preload_n = preload;
+                }
+            }
+        }
+        if let Some(g) = f.gravity_m_per_s2 {
+            // Stated preloads that no longer carry the (recalibrated) weights go: they then
+            // follow from gravity.
+            let weight: f64 = f.dofs.iter().map(|d| d.mass * g).sum();
+            let unbalanced = f.dofs.iter().enumerate().any(|(i, d)| {
+                let w = match d.kind {
+                    DofKind::Translation => -d.mass * g,
+                    DofKind::Rotation => 0.0,
+                };
+                let carried: f64 = f
+                    .elements
+                    .iter()
+                    .zip(&self.elements)
+                    .map(|(spec, e)| e.a[i] * spec.preload_n)
+                    .sum();
+                (w - carried).abs() > 0.01 * weight
+            });
+            if unbalanced {
+                for spec in &mut f.elements {
+                    spec.preload_n = 0.0;
+                }
+            }
         }
         f.effects = self.effect_specs();
         f
@@ -621,6 +797,60 @@ impl Model {
     /// The model file's text with the current parameters and effects.
     pub fn to_toml(&self) -> String {
         toml::to_string(&self.to_file()).unwrap_or_else(|e| format!("# not serialisable: {e}\n"))
+    }
+
+    /// The linearised structure (see [`Linearised`]).
+    pub fn linearised(&self) -> Linearised {
+        let (n, m) = (self.n(), self.inputs.len());
+        let mut l = Linearised {
+            mass: nalgebra::DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(
+                &self.mass,
+            )),
+            damping: nalgebra::DMatrix::zeros(n, n),
+            stiffness: nalgebra::DMatrix::zeros(n, n),
+            input_stiffness: nalgebra::DMatrix::zeros(n, m),
+            input_damping: nalgebra::DMatrix::zeros(n, m),
+            force_input: nalgebra::DMatrix::zeros(n, m),
+        };
+        for e in &self.elements {
+            let (k, c) = e.law.linearised();
+            let a = nalgebra::DVector::from_column_slice(&e.a);
+            let b = nalgebra::RowDVector::from_row_slice(&e.b);
+            let aat = &a * a.transpose();
+            l.stiffness += k * &aat;
+            l.damping += c * &aat;
+            l.input_stiffness -= k * &a * &b;
+            l.input_damping -= c * &a * &b;
+        }
+        for (j, input) in self.inputs.iter().enumerate() {
+            for (i, t) in input.t.iter().enumerate() {
+                l.force_input[(i, j)] = *t;
+            }
+        }
+        l
+    }
+
+    /// The coefficients `c` of DOF or point `name` (`pos = c·q`), or `None` if it is
+    /// neither.
+    pub fn position_of(&self, name: &str) -> Option<Vec<f64>> {
+        let n = self.n();
+        if let Some(i) = self.dofs.iter().position(|d| d == name) {
+            let mut c = vec![0.0; n];
+            c[i] = 1.0;
+            return Some(c);
+        }
+        let point = self.file.points.iter().find(|p| p.name == name)?;
+        Some(
+            self.dofs
+                .iter()
+                .map(|d| point.position.get(d).copied().unwrap_or(0.0))
+                .collect(),
+        )
+    }
+
+    /// The elements' static preloads (N, compression), in element order.
+    pub fn preloads(&self) -> Vec<f64> {
+        self.elements.iter().map(|e| e.preload_n).collect()
     }
 
     /// Number of DOFs.

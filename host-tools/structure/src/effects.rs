@@ -1,5 +1,7 @@
-//! The candidate effects: identifiers, parameters and the force laws they give an element
-//! (or the transformations they apply to an input).
+//! The effect vocabulary: identifiers, parameters and the force laws they give an element
+//! (or the transformations they apply to an input). One name, one parameter set and one
+//! law each, for the simulated rig (`mil-rig`), diagnosis (`mil-diagnose`) and every file
+//! that names an effect.
 //!
 //! An element's force (N, positive pushing its ends apart) at compression `x` (m), rate `v`
 //! (m/s) and hysteretic state `z` (m) is evaluated by [`ElementLaw::force`]:
@@ -26,7 +28,7 @@ use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// The effect identifiers of issue 6 (as used in model files and reports).
+/// The effect identifiers (as used in structure files, set-ups and reports).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EffectKind {
@@ -118,6 +120,10 @@ impl std::fmt::Display for EffectKind {
         f.write_str(self.name())
     }
 }
+
+/// Default smoothing velocity `v_eps` (m/s) of `coulomb_friction`: the smoothed law
+/// reaches 76 % of `F_c` at `|v| = v_eps` and 99.9 % at `4 v_eps`.
+pub const DEFAULT_SMOOTHING_VELOCITY_M_PER_S: f64 = 1e-3;
 
 /// Bouc-Wen parameters of [`ElementLaw::hysteresis`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -218,6 +224,39 @@ impl ElementLaw {
     #[inline]
     pub fn state_rate(&self, x: f64, v: f64, z: f64) -> f64 {
         CompiledLaw::new(self).state_rate(x, v, z)
+    }
+
+    /// Number of internal states: 1 with hysteresis (the hysteretic deflection `z`), else 0.
+    pub fn states(&self) -> usize {
+        usize::from(self.hysteresis.is_some())
+    }
+
+    /// Small-signal stiffness (N/m) and damping (N·s/m) about `x = 0`, `v = 0`, `z = 0`:
+    /// what a linear analysis sees. Contributions of the effects:
+    ///
+    /// - lift-off: none (the element is in contact at equilibrium, its preload >= 0);
+    /// - Coulomb friction: none. The smoothed law has slope `F_c / v_eps` at `v = 0`, an
+    ///   artefact of the smoothing that only holds for `|v| << v_eps`; the ideal (unsmoothed)
+    ///   friction's linearisation, 0, is returned;
+    /// - cubic stiffness, quadratic damping: none (their slopes vanish at 0);
+    /// - bump stop: none (not engaged at `x = 0`; with a zero gap the one-sided slope is
+    ///   ignored);
+    /// - backlash of half gap `b > 0`: the spring path (linear or hysteretic) contributes
+    ///   nothing, `x = 0` lies inside the gap;
+    /// - asymmetric damping: the mean `(c_bump + c_rebound) / 2` (equal dissipation per
+    ///   cycle of a symmetric oscillation);
+    /// - hysteresis: the initial stiffness `k (α + (1 − α) A)`.
+    pub fn linearised(&self) -> (f64, f64) {
+        let k = match self.hysteresis {
+            Some(bw) => self.k + self.k_h * bw.a,
+            None => self.k,
+        };
+        let k = if self.backlash.is_some_and(|b| b > 0.0) {
+            0.0
+        } else {
+            k
+        };
+        (k, self.c)
     }
 
     /// The effects that are on.
@@ -384,7 +423,9 @@ impl ElementLaw {
             EffectKind::CoulombFriction => {
                 let fc = reader.get("force_n")?;
                 reader.check(fc >= 0.0, "force_n", fc, ">= 0")?;
-                let veps = reader.opt("smoothing_velocity_m_per_s")?.unwrap_or(1e-3);
+                let veps = reader
+                    .opt("smoothing_velocity_m_per_s")?
+                    .unwrap_or(DEFAULT_SMOOTHING_VELOCITY_M_PER_S);
                 reader.check(veps > 0.0, "smoothing_velocity_m_per_s", veps, "> 0")?;
                 self.coulomb = Some((fc, veps));
             }
@@ -444,6 +485,8 @@ impl ElementLaw {
                 let a = reader.opt("a")?.unwrap_or(1.0);
                 reader.check(a > 0.0, "a", a, "> 0")?;
                 let beta = reader.get("beta_per_m")?;
+                // β <= 0 makes the loop an energy source (negative work per cycle).
+                reader.check(beta > 0.0, "beta_per_m", beta, "> 0")?;
                 let gamma = reader.get("gamma_per_m")?;
                 let n = reader.opt("n")?.unwrap_or(1.0);
                 reader.check(n >= 1.0, "n", n, ">= 1")?;
@@ -497,8 +540,8 @@ pub fn play(x: f64, b: f64) -> f64 {
 /// their parameters as plain numbers, so that an evaluation matches no `Option` (see
 /// [`CompiledLaw::force`] for how the effects are dispatched). The element force law's
 /// arithmetic lives here; [`ElementLaw`]'s methods unpack and call it.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct CompiledLaw {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompiledLaw {
     /// Bits of the effects that are on (the `Self::ON_*` constants).
     on: u16,
     /// [`ElementLaw::k`].
@@ -539,7 +582,7 @@ impl CompiledLaw {
     const ON_LIFT_OFF: u16 = 1 << 8;
 
     /// Unpacks `law`.
-    pub(crate) fn new(law: &ElementLaw) -> Self {
+    pub fn new(law: &ElementLaw) -> Self {
         let mut on = 0;
         let mut flag = |present: bool, bit: u16| {
             if present {
@@ -583,7 +626,7 @@ impl CompiledLaw {
     /// of [`Self::force_with`] with its effect set as a constant: straight-line code after
     /// one multi-way jump, instead of a test per effect. Other sets test each bit.
     #[inline(always)]
-    pub(crate) fn force(&self, x: f64, v: f64, z: f64) -> f64 {
+    pub fn force(&self, x: f64, v: f64, z: f64) -> f64 {
         macro_rules! dispatch {
             ($($bit:path),*) => {
                 match self.on {
@@ -648,13 +691,13 @@ impl CompiledLaw {
 
     /// [`Self::force`] before lift-off (see [`ElementLaw::force_unclipped`]).
     #[inline]
-    pub(crate) fn force_unclipped(&self, x: f64, v: f64, z: f64) -> f64 {
+    pub fn force_unclipped(&self, x: f64, v: f64, z: f64) -> f64 {
         self.force_with(self.on & !Self::ON_LIFT_OFF, x, v, z)
     }
 
     /// As [`ElementLaw::state_rate`] (0 without hysteresis).
     #[inline(always)]
-    pub(crate) fn state_rate(&self, x: f64, v: f64, z: f64) -> f64 {
+    pub fn state_rate(&self, x: f64, v: f64, z: f64) -> f64 {
         if self.on & Self::ON_HYSTERESIS == 0 {
             return 0.0;
         }
@@ -787,7 +830,7 @@ impl InputLaw {
             Some(d) if d > 0.0 => {
                 let shift = d / dt;
                 (0..u.len())
-                    .map(|i| crate::signal::sample_at(u, i as f64 - shift))
+                    .map(|i| mil_numerics::interpolate::sample_at(u, i as f64 - shift))
                     .collect()
             }
             _ => u.to_vec(),

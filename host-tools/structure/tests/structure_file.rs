@@ -1,0 +1,225 @@
+//! The structure file: static loads stated once (gravity and the preloads it implies, or
+//! stated preloads that must balance it), the linearisation, and the round trip through
+//! TOML. Expected values are the textbook statics and stiffness matrices of the paper's
+//! quarter car and half car, written out by hand here.
+
+use mil_structure::{EffectKind, Model};
+
+const G: f64 = 9.81;
+
+/// The paper's quarter car on the road (Table 2 values), optionally with gravity and extra
+/// lines on the tyre element.
+fn quarter_car(gravity: bool, tyre_extra: &str, effects: &str) -> String {
+    format!(
+        r#"
+name = "quarter car"
+{gravity}
+
+[[dof]]
+name = "x_s"
+mass = 150.0
+
+[[dof]]
+name = "x_u"
+mass = 20.0
+
+[[element]]
+name = "suspension"
+upper = "x_s"
+lower = "x_u"
+stiffness_n_per_m = 120.0e3
+damping_n_s_per_m = 2.5e3
+
+[[element]]
+name = "tyre"
+upper = "x_u"
+lower = "road"
+stiffness_n_per_m = 250.0e3
+damping_n_s_per_m = 500.0
+{tyre_extra}
+
+[[input]]
+name = "road"
+kind = "displacement"
+column = "road"
+
+[[output]]
+column = "hub"
+kind = "displacement"
+of = "x_u"
+{effects}
+"#,
+        gravity = if gravity {
+            "gravity_m_per_s2 = 9.81"
+        } else {
+            ""
+        },
+    )
+}
+
+fn close(a: f64, b: f64, rel: f64) -> bool {
+    (a - b).abs() <= rel * b.abs().max(1e-12)
+}
+
+#[test]
+fn gravity_gives_the_preloads_that_carry_the_weights() {
+    let m = Model::from_toml(&quarter_car(true, "", "")).unwrap();
+    let p = m.preloads();
+    // The suspension carries the body, the tyre the whole car.
+    assert!(close(p[0], 150.0 * G, 1e-12), "{p:?}");
+    assert!(close(p[1], 170.0 * G, 1e-12), "{p:?}");
+    assert_eq!(m.static_force, vec![-150.0 * G, -20.0 * G]);
+    // Without gravity nothing is preloaded.
+    let free = Model::from_toml(&quarter_car(false, "", "")).unwrap();
+    assert_eq!(free.preloads(), vec![0.0, 0.0]);
+    assert_eq!(free.static_force, vec![0.0, 0.0]);
+}
+
+#[test]
+fn lift_off_lifts_off_from_the_derived_preload() {
+    let fx = "[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\n";
+    let m = Model::from_toml(&quarter_car(true, "", fx)).unwrap();
+    assert!(close(m.elements[1].law.lift_off.unwrap(), 170.0 * G, 1e-12));
+    // The tyre cannot pull: far in extension its force relative to equilibrium is minus
+    // the static load.
+    let f = m.elements[1].law.force(-0.5, 0.0, 0.0);
+    assert!(close(f, -170.0 * G, 1e-12), "{f}");
+    // Written back: still derived (no preload_n in the file), same law.
+    let text = m.to_toml();
+    assert!(!text.contains("preload_n"), "{text}");
+    let back = Model::from_toml(&text).unwrap();
+    assert_eq!(back.elements, m.elements);
+}
+
+#[test]
+fn stated_preloads_must_balance_the_weights() {
+    // In N, balancing: accepted as stated.
+    let text = quarter_car(true, "preload_n = 1667.7", "").replace(
+        "damping_n_s_per_m = 2.5e3",
+        "damping_n_s_per_m = 2.5e3\npreload_n = 1471.5",
+    );
+    let m = Model::from_toml(&text).unwrap();
+    assert_eq!(m.preloads(), vec![1471.5, 1667.7]);
+    // The car's static load in kg: refused, naming the field and the likely unit.
+    let kg = quarter_car(true, "preload_n = 170.0", "").replace(
+        "damping_n_s_per_m = 2.5e3",
+        "damping_n_s_per_m = 2.5e3\npreload_n = 150.0",
+    );
+    let e = Model::from_toml(&kg).unwrap_err().to_string();
+    assert!(e.contains("preload_n") && e.contains("kg"), "{e}");
+    // Half the weight: refused, naming the DOF.
+    let half = quarter_car(true, "preload_n = 833.9", "");
+    let e = Model::from_toml(&half).unwrap_err().to_string();
+    assert!(e.contains("preload_n") && e.contains("x_"), "{e}");
+    // A negative gravity is refused.
+    let e = Model::from_toml(&quarter_car(false, "", "").replace(
+        "name = \"quarter car\"",
+        "name = \"quarter car\"\ngravity_m_per_s2 = -9.81",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("gravity_m_per_s2"), "{e}");
+}
+
+#[test]
+fn recalibrated_masses_drop_stated_preloads_that_no_longer_balance() {
+    let text = quarter_car(true, "preload_n = 1667.7", "").replace(
+        "damping_n_s_per_m = 2.5e3",
+        "damping_n_s_per_m = 2.5e3\npreload_n = 1471.5",
+    );
+    let mut m = Model::from_toml(&text).unwrap();
+    m.mass[0] = 165.0;
+    let back = Model::from_toml(&m.to_toml()).unwrap();
+    assert!(close(back.preloads()[0], 165.0 * G, 1e-12));
+    assert!(close(back.preloads()[1], 185.0 * G, 1e-12));
+}
+
+#[test]
+fn the_linearisation_is_the_quarter_car_of_the_textbook() {
+    let m = Model::from_toml(&quarter_car(true, "", "")).unwrap();
+    let l = m.linearised();
+    let (kc, cc, kt, ct) = (120.0e3, 2.5e3, 250.0e3, 500.0);
+    assert_eq!(l.mass[(0, 0)], 150.0);
+    assert_eq!(l.mass[(1, 1)], 20.0);
+    assert_eq!(l.mass[(0, 1)], 0.0);
+    let k = [[kc, -kc], [-kc, kc + kt]];
+    let c = [[cc, -cc], [-cc, cc + ct]];
+    for i in 0..2 {
+        for j in 0..2 {
+            assert_eq!(l.stiffness[(i, j)], k[i][j], "K[{i}][{j}]");
+            assert_eq!(l.damping[(i, j)], c[i][j], "C[{i}][{j}]");
+        }
+    }
+    // The road pushes the hub through the tyre: + k_t w + c_t ẇ on x_u.
+    assert_eq!(l.input_stiffness.shape(), (2, 1));
+    assert_eq!(l.input_stiffness[(0, 0)], 0.0);
+    assert_eq!(l.input_stiffness[(1, 0)], kt);
+    assert_eq!(l.input_damping[(1, 0)], ct);
+    assert!(l.force_input.iter().all(|v| *v == 0.0));
+}
+
+#[test]
+fn the_half_car_axle_loads_follow_from_the_lever_arms() {
+    // Statically determinate: the axle loads are W l_r / L and W l_f / L whatever the
+    // stiffnesses. Heave and pitch DOFs, the suspensions at axle points.
+    let (lf, lr, mb) = (1.8, 1.4, 550.0);
+    let text = format!(
+        r#"
+name = "half car"
+gravity_m_per_s2 = 9.81
+[[dof]]
+name = "z_b"
+mass = {mb}
+[[dof]]
+name = "theta_b"
+kind = "rotation"
+mass = 350.0
+[[point]]
+name = "front_axle"
+position = {{ z_b = 1.0, theta_b = -{lf} }}
+[[point]]
+name = "rear_axle"
+position = {{ z_b = 1.0, theta_b = {lr} }}
+[[element]]
+name = "front"
+upper = "front_axle"
+lower = "road_front"
+stiffness_n_per_m = 300.0e3
+damping_n_s_per_m = 2.0e3
+[[element]]
+name = "rear"
+upper = "rear_axle"
+lower = "road_rear"
+stiffness_n_per_m = 240.0e3
+damping_n_s_per_m = 4.0e3
+[[input]]
+name = "road_front"
+kind = "displacement"
+column = "road_front"
+[[input]]
+name = "road_rear"
+kind = "displacement"
+column = "road_rear"
+[[input]]
+name = "downforce"
+kind = "force"
+column = "downforce"
+at = "front_axle"
+"#
+    );
+    let m = Model::from_toml(&text).unwrap();
+    let w = mb * G;
+    let p = m.preloads();
+    assert!(close(p[0], w * lr / (lf + lr), 1e-9), "{p:?}");
+    assert!(close(p[1], w * lf / (lf + lr), 1e-9), "{p:?}");
+    // No gravity moment on the pitch DOF; the down force enters at the front axle point.
+    assert_eq!(m.static_force[1], 0.0);
+    let l = m.linearised();
+    assert_eq!(l.force_input[(0, 2)], 1.0);
+    assert_eq!(l.force_input[(1, 2)], -lf);
+    assert_eq!(l.input_stiffness[(1, 0)], -300.0e3 * lf);
+    assert_eq!(l.input_stiffness[(0, 2)], 0.0);
+    // A structure with no outputs is a valid structure (the rig needs none).
+    assert!(m.outputs.is_empty());
+    assert_eq!(m.elements[0].law.kinds(), Vec::<EffectKind>::new());
+}
