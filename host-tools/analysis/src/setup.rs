@@ -449,6 +449,36 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64) -> Result<Structure>
     })
 }
 
+/// Largest factor (either way) between a tracking table's gain at its lowest frequency and
+/// 1 that [`check_tracking_gain`] accepts.
+pub const MAX_TRACKING_DC_FACTOR: f64 = 4.0;
+
+/// A tracking response (achieved per demanded, both in the same unit) has a gain near 1 at
+/// low frequency: a table far from it was measured with demand and response in different
+/// units (kN and N, mm and m) or is not a tracking response.
+fn check_tracking_gain(frf: &FrfTable, path: &Path) -> Result<()> {
+    let Some(first) = frf.points().first() else {
+        return Ok(());
+    };
+    let g = first.magnitude;
+    if (1.0 / MAX_TRACKING_DC_FACTOR..=MAX_TRACKING_DC_FACTOR).contains(&g) {
+        return Ok(());
+    }
+    let decade = 10f64.powf(g.log10().round());
+    Err(setup_error(format!(
+        "actuator tracking table {}: gain {g:.4} at its lowest frequency {} Hz, where a \
+         tracking response is near 1{}: were demand and response logged in different units, or \
+         is this not the tracking response?",
+        path.display(),
+        first.frequency_hz,
+        if decade >= 100.0 || decade <= 0.01 {
+            format!(" ({decade:e}x: e.g. N against kN, or mm against m)")
+        } else {
+            String::new()
+        }
+    )))
+}
+
 fn response(
     entry: &ResponseEntry,
     reference: Rational,
@@ -480,7 +510,12 @@ fn response(
             }
         }
         ResponseEntry::Table { table } => {
-            ResponseSource::Table(FrfTable::read_csv(&folder.join(table))?)
+            let path = folder.join(table);
+            let frf = FrfTable::read_csv(&path)?;
+            if what == "tracking" {
+                check_tracking_gain(&frf, &path)?;
+            }
+            ResponseSource::Table(frf)
         }
     })
 }

@@ -1836,6 +1836,7 @@ pub fn diagnose_with_progress(
         log(0.0, m);
     }
     let record = record.as_ref();
+    crate::record::check_scale(model, record)?;
     let len = record.len();
     let (prefiltered, input_cutoffs) = prefilter_inputs(model, record);
     let record = &prefiltered;

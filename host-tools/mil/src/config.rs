@@ -463,6 +463,21 @@ impl Config {
     /// builds it: read, valid, at rest with zero actuator force.
     pub fn validate_sim(&self) -> Result<Validated> {
         let validated = self.validate()?;
+        if let (ModelKind::Tyre, Some(tyre)) = (self.model.kind, &self.tyre) {
+            let car = mil_analysis::examples::TyreExample::default();
+            let weight =
+                (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2;
+            let load = f64::from(tyre.static_load_n);
+            if (load - weight).abs() > 0.5 {
+                let kg =
+                    (load * mil_rig::specimen::GRAVITY_M_PER_S2 - weight).abs() < 0.01 * weight;
+                bail!(
+                    "tyre.static_load_n is {load} N, but the rig's quarter car weighs {weight:.1} N \
+                     ((m_s + m_u) g): the rig would not start at rest{}",
+                    if kg { " (the load given in kg?)" } else { "" }
+                );
+            }
+        }
         if self.model.kind == ModelKind::Substructure {
             let channels = self.channels();
             let (specimen, _) = self.physical_specimen(channels)?;
@@ -506,6 +521,19 @@ impl Config {
                 };
                 if self.speed.is_some() {
                     bail!("[speed] is for the aero model");
+                }
+                // The static deflection tells a stiffness in N/mm (1000x soft).
+                let deflection = f64::from(t.static_load_n) / f64::from(t.stiffness_n_per_m);
+                if t.stiffness_n_per_m > 0.0 && deflection > 0.2 {
+                    bail!(
+                        "tyre.stiffness_n_per_m = {}: under tyre.static_load_n = {} N the tyre \
+                         would deflect {deflection:.2} m; a stiffness in N/mm ({} N/mm = {:e} \
+                         N/m)?",
+                        t.stiffness_n_per_m,
+                        t.static_load_n,
+                        t.stiffness_n_per_m,
+                        f64::from(t.stiffness_n_per_m) * 1e3
+                    );
                 }
                 PreparedParams::new(&l.params(TyreModelParams { tyre: [tyre; 4] }, filter), dt)
                     .map(|p| Validated::Tyre(Box::new(p)))

@@ -183,7 +183,7 @@ fn tyre_toml(section: &crate::config::TyreSection, element: &str, model: &Path) 
 }
 
 /// Every input and output column the model names must be in the record.
-fn check_columns(model: &Model, record: &Record, path: &Path) -> Result<()> {
+pub(crate) fn check_columns(model: &Model, record: &Record, path: &Path) -> Result<()> {
     let wanted = model
         .inputs
         .iter()

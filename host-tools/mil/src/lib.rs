@@ -15,6 +15,7 @@
 //! by the names of its A2L file; [`xcp`] holds what they share (port, CAN IDs, secret).
 
 pub mod analyze;
+pub mod check;
 pub mod config;
 pub mod daq_record;
 pub mod design_filter;

@@ -157,10 +157,16 @@ enum Command {
         #[arg(long, default_value = "out/mil.a2l")]
         out: PathBuf,
     },
-    /// Validate a run configuration and report the first problem.
+    /// Validate any of the project's files exactly as the commands that read it do, and
+    /// report the first problem: a structure (TOML with [[dof]]), a run configuration
+    /// ([run]), an analysis set-up (configuration = ...), a filter file (JSON) or a record
+    /// (CSV).
     Check {
-        /// Run configuration (TOML).
-        config: PathBuf,
+        /// The file.
+        file: PathBuf,
+        /// For a record: the structure whose input and output columns it must hold.
+        #[arg(long, value_name = "STRUCTURE")]
+        against: Option<PathBuf>,
     },
     /// The board's calibration parameters over XCP on CAN, by their A2L names: list them
     /// (A2L only), read them, write them.
@@ -498,15 +504,8 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Check { config } => {
-            // A configuration with a rig specimen is checked as `mil sim` runs it.
-            let c = Config::from_file(&config)?;
-            if c.rig.structure.is_some() {
-                c.validate_sim()?;
-            } else {
-                c.validate()?;
-            }
-            println!("{}: valid", config.display());
+        Command::Check { file, against } => {
+            println!("{}", mil::check::check(&file, against.as_deref())?);
             Ok(())
         }
         Command::Param { command } => run_param(command),

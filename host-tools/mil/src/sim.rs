@@ -202,15 +202,6 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
                 .as_ref()
                 .context("model.kind = \"tyre\" needs a [tyre] table")?;
             let car = TyreExample::default();
-            let weight =
-                (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2;
-            if (f64::from(tyre.static_load_n) - weight).abs() > 0.5 {
-                bail!(
-                    "tyre.static_load_n is {} N, but the rig's quarter car weighs {weight:.1} N \
-                     ((m_s + m_u) g): the rig would not start at rest",
-                    tyre.static_load_n
-                );
-            }
             let suspension = config
                 .rig
                 .suspension

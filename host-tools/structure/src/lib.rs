@@ -12,6 +12,8 @@
 //!   static preload and effects by name).
 //! - [`model`]: the structure file (TOML: DOFs, points, elements between them, inputs and
 //!   measured outputs mapped to record columns, effects) and the validated [`Model`].
+//! - [`plausible`]: the physical plausibility every structure must pass (static
+//!   compressions, natural frequencies), which catches unit mistakes.
 //!
 //! Sign convention: an element's compression `x` (m) is positive when its ends approach,
 //! `v = dx/dt`, and its force `F` (N) pushes the ends apart (positive in compression).
@@ -21,6 +23,7 @@
 pub mod effects;
 pub mod element;
 pub mod model;
+pub mod plausible;
 
 pub use effects::{CompiledLaw, EffectKind, ElementLaw, InputLaw};
 pub use element::{Element, Parameters};

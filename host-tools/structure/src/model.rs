@@ -635,6 +635,7 @@ impl Model {
         for fx in &file.effects {
             model.add_effect(fx)?;
         }
+        crate::plausible::check(&model)?;
         Ok(model)
     }
 

@@ -223,3 +223,42 @@ at = "front_axle"
     assert!(m.outputs.is_empty());
     assert_eq!(m.elements[0].law.kinds(), Vec::<EffectKind>::new());
 }
+
+/// Unit mistakes a file cannot show by itself are refused by physics, naming the field and
+/// the likely unit.
+#[test]
+fn unit_mistakes_are_refused_naming_the_field_and_the_unit() {
+    let refused = |text: &str| Model::from_toml(text).unwrap_err().to_string();
+    // The tyre in N/mm: 6.7 m of static compression under the car.
+    let e = refused(
+        &quarter_car(true, "", "")
+            .replace("stiffness_n_per_m = 250.0e3", "stiffness_n_per_m = 250.0"),
+    );
+    assert!(
+        e.contains("\"tyre\"") && e.contains("stiffness_n_per_m") && e.contains("N/mm"),
+        "{e}"
+    );
+    // The body's mass in g.
+    let e = refused(&quarter_car(true, "", "").replace("mass = 150.0", "mass = 150000.0"));
+    assert!(e.contains("mass in g"), "{e}");
+    // Gravity in mm/s².
+    let e = refused(&quarter_car(true, "", "").replace("9.81", "9810.0"));
+    assert!(e.contains("gravity_m_per_s2") && e.contains("mm/s"), "{e}");
+    // Without gravity the natural frequencies still catch gross mistakes: both springs in
+    // N/km (1e-3 of N/m) put the body mode at 2 mHz.
+    let e = refused(
+        &quarter_car(false, "", "")
+            .replace("stiffness_n_per_m = 250.0e3", "stiffness_n_per_m = 0.25")
+            .replace("stiffness_n_per_m = 120.0e3", "stiffness_n_per_m = 0.12"),
+    );
+    assert!(e.contains("natural frequency") && e.contains("x_s"), "{e}");
+    // The paper's values pass, with and without gravity; a free mass (no spring) has no
+    // natural frequency to check.
+    Model::from_toml(&quarter_car(true, "", "")).unwrap();
+    Model::from_toml(&quarter_car(false, "", "")).unwrap();
+    Model::from_toml(
+        "name = \"free\"\n[[dof]]\nname = \"q\"\nmass = 80.0\n[[input]]\nname = \"f\"\n\
+         kind = \"force\"\ncolumn = \"f\"\nat = \"q\"\n",
+    )
+    .unwrap();
+}

@@ -1,0 +1,172 @@
+//! `mil check FILE`: any of the project's files, validated exactly as the commands that read
+//! it validate it (each kind through its command's own reader), so that what `mil check`
+//! accepts every command accepts.
+//!
+//! | file | recognised by | validated as |
+//! |---|---|---|
+//! | structure (`[[dof]]`) | TOML with `dof` | `mil diagnose` and `[rig.structure]`: schema, names, effects, statics, plausibility |
+//! | run configuration | TOML with `[run]` | `mil sim` (with a rig structure) or `mil run` |
+//! | analysis set-up | TOML with `configuration` | `mil analyze` / `mil design-filter` |
+//! | filter file | JSON | `[controller] filter`, `mil filter upload`: model-core's checks |
+//! | record | CSV | `mil diagnose`'s reader: header, units, uniform time base |
+//!
+//! A record checked `--against` a structure must also hold the structure's input and output
+//! columns, as `mil diagnose` requires.
+
+use crate::config::Config;
+use anyhow::{anyhow, bail, Context, Result};
+use mil_diagnose::{Model, Record};
+use std::path::Path;
+
+/// What kind of file a path holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileKind {
+    /// A structure file (`mil diagnose`'s model, `[rig.structure]`).
+    Structure,
+    /// A run configuration (`mil run`, `mil sim`).
+    RunConfiguration,
+    /// An analysis set-up (`mil analyze`, `mil design-filter`).
+    Setup,
+    /// A command-filter file (JSON).
+    Filter,
+    /// A measured or simulated record (CSV).
+    Record,
+}
+
+impl FileKind {
+    /// The kind's name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            FileKind::Structure => "structure",
+            FileKind::RunConfiguration => "run configuration",
+            FileKind::Setup => "analysis set-up",
+            FileKind::Filter => "filter file",
+            FileKind::Record => "record",
+        }
+    }
+}
+
+/// The kind of `path`: by extension (`.json`, `.csv`), and a TOML file by its top-level keys.
+///
+/// # Errors
+/// An unreadable file, TOML that is none of the kinds.
+pub fn kind_of(path: &Path) -> Result<FileKind> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("json") => return Ok(FileKind::Filter),
+        Some("csv") | Some("txt") | Some("tsv") => return Ok(FileKind::Record),
+        _ => {}
+    }
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let table: toml::Table = toml::from_str(&text)
+        .map_err(|e| anyhow!("{}: not TOML, JSON or CSV: {e}", path.display()))?;
+    if table.contains_key("dof") {
+        Ok(FileKind::Structure)
+    } else if table.contains_key("run") {
+        Ok(FileKind::RunConfiguration)
+    } else if table.contains_key("configuration") {
+        Ok(FileKind::Setup)
+    } else {
+        bail!(
+            "{}: not a structure ([[dof]]), run configuration ([run]) or analysis set-up \
+             (configuration = ...); its keys: {:?}",
+            path.display(),
+            table.keys().collect::<Vec<_>>()
+        )
+    }
+}
+
+/// Validates `path` as its kind's commands do; a record also against the structure
+/// `against`. Returns the one-line summary `mil check` prints.
+///
+/// # Errors
+/// The first problem, named.
+pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
+    let kind = kind_of(path)?;
+    if against.is_some() && kind != FileKind::Record {
+        bail!("--against is for records (a {} was given)", kind.name());
+    }
+    let what = match kind {
+        FileKind::Structure => {
+            let m = Model::read(path).map_err(|e| anyhow!("{e}"))?;
+            let frequencies: Vec<f64> = mil_structure::plausible::modes(&m)
+                .iter()
+                .map(|mode| mode.frequency_hz)
+                .collect();
+            format!(
+                "structure {:?}: {} DOF(s), {} element(s), {} input(s), {} output(s){}{}",
+                m.file.name,
+                m.n(),
+                m.elements.len(),
+                m.inputs.len(),
+                m.outputs.len(),
+                match (frequencies.first(), frequencies.last()) {
+                    (Some(lo), Some(hi)) => format!(", natural frequencies {lo:.3}-{hi:.3} Hz"),
+                    _ => String::new(),
+                },
+                if m.file.gravity_m_per_s2.is_some() {
+                    format!(", preloads {:?} N", round1(&m.preloads()))
+                } else {
+                    String::new()
+                }
+            )
+        }
+        FileKind::RunConfiguration => {
+            let c = Config::from_file(path)?;
+            // A configuration for the simulated rig is checked as `mil sim` runs it.
+            if is_sim_configuration(path)? {
+                c.validate_sim()?;
+                format!("run configuration ({:?}, as mil sim runs it)", c.model.kind)
+            } else {
+                c.validate()?;
+                format!("run configuration ({:?})", c.model.kind)
+            }
+        }
+        FileKind::Setup => {
+            let s = mil_analysis::setup::Setup::read(path).map_err(|e| anyhow!("{e}"))?;
+            format!("analysis set-up {:?}", s.name)
+        }
+        FileKind::Filter => {
+            let (f, cascade) =
+                mil_analysis::filter_file::FilterFile::read(path).map_err(|e| anyhow!("{e}"))?;
+            format!(
+                "filter file: {} active section(s) at {} Hz",
+                cascade.active().len(),
+                f.sample_rate_hz
+            )
+        }
+        FileKind::Record => {
+            let r = Record::read(path).map_err(|e| anyhow!("{e}"))?;
+            if let Some(structure) = against {
+                let m = Model::read(structure).map_err(|e| anyhow!("{e}"))?;
+                crate::diagnose::check_columns(&m, &r, path)?;
+                mil_diagnose::record::check_scale(&m, &r).map_err(|e| anyhow!("{e}"))?;
+            }
+            format!(
+                "record: {} samples at {:.6} Hz ({:.3} s), columns {}",
+                r.len(),
+                1.0 / r.dt,
+                r.dt * (r.len().saturating_sub(1)) as f64,
+                r.names.join(", ")
+            )
+        }
+    };
+    Ok(format!("{}: valid {what}", path.display()))
+}
+
+/// Whether a run configuration is `mil sim`'s: it has a table only `mil sim` reads.
+fn is_sim_configuration(path: &Path) -> Result<bool> {
+    let text = std::fs::read_to_string(path)?;
+    let table: toml::Table = toml::from_str(&text)?;
+    Ok(["rig", "sensors", "links", "compare"]
+        .iter()
+        .any(|k| table.contains_key(*k)))
+}
+
+fn round1(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|x| (x * 10.0).round() / 10.0).collect()
+}
