@@ -29,7 +29,8 @@
 //! ```
 //!
 //! A `custom` model gives `[numerical]` and `[physical]` (`dofs`, `mass`, `damping`,
-//! `stiffness` matrices), `[interface]` (`location`, `numerical_dofs`, `physical_dofs`,
+//! `stiffness` matrices, or `structure = "file.toml"`: a structure file, linearised, whose
+//! displacement inputs join the `[[inputs]]` of the same name), `[interface]` (`location`, `numerical_dofs`, `physical_dofs`,
 //! `stiffness`, `damping`, optional `velocity_cutoff_hz`) and `[[inputs]]` (`name`, `unit`,
 //! `forces` on DOFs, and for a numerical part without DOFs `interface_position`).
 //!
@@ -116,19 +117,32 @@ pub struct ModelSection {
     pub two_dof: TwoDofExample,
 }
 
-/// A custom mechanical part.
+/// A custom mechanical part: its matrices, or a structure file.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PartSection {
     /// DOF names.
+    #[serde(default)]
     pub dofs: Vec<String>,
     /// Mass matrix (kg), rows.
+    #[serde(default)]
     pub mass: Vec<Vec<f64>>,
     /// Damping matrix (N·s/m), rows.
+    #[serde(default)]
     pub damping: Vec<Vec<f64>>,
     /// Stiffness matrix (N/m), rows.
+    #[serde(default)]
     pub stiffness: Vec<Vec<f64>>,
+    /// A structure file (relative to the set-up; `mil diagnose`'s schema, e.g. its
+    /// `updated.toml`) instead of the matrices: the part is its linearisation about the
+    /// static equilibrium, and its displacement inputs push the part through the set-up's
+    /// `[[inputs]]` of the same name (one is added, unit m, where the set-up has none).
+    pub structure: Option<std::path::PathBuf>,
 }
+
+/// A part and the couplings of its structure's displacement inputs, by name: stiffness and
+/// damping column over the part's DOFs.
+type PartWithInputs = (MechanicalPart, Vec<(String, DVector<f64>, DVector<f64>)>);
 
 /// A custom interface.
 #[derive(Clone, Debug, Deserialize)]
@@ -323,13 +337,40 @@ fn matrix(rows: &[Vec<f64>], what: &str) -> Result<DMatrix<f64>> {
     Ok(DMatrix::from_fn(n, m, |i, j| rows[i][j]))
 }
 
-fn part(p: &PartSection, what: &str) -> Result<MechanicalPart> {
-    MechanicalPart::new(
-        p.dofs.clone(),
-        matrix(&p.mass, &format!("{what} mass"))?,
-        matrix(&p.damping, &format!("{what} damping"))?,
-        matrix(&p.stiffness, &format!("{what} stiffness"))?,
-    )
+fn part(p: &PartSection, what: &str, folder: &Path) -> Result<PartWithInputs> {
+    let Some(file) = &p.structure else {
+        let part = MechanicalPart::new(
+            p.dofs.clone(),
+            matrix(&p.mass, &format!("{what} mass"))?,
+            matrix(&p.damping, &format!("{what} damping"))?,
+            matrix(&p.stiffness, &format!("{what} stiffness"))?,
+        )?;
+        return Ok((part, Vec::new()));
+    };
+    if !(p.dofs.is_empty() && p.mass.is_empty() && p.damping.is_empty() && p.stiffness.is_empty()) {
+        return Err(setup_error(format!(
+            "[{what}]: give a structure file or dofs and matrices, not both"
+        )));
+    }
+    let path = folder.join(file);
+    let model = mil_structure::Model::read(&path)
+        .map_err(|e| setup_error(format!("[{what}] structure: {e}")))?;
+    let l = model.linearised();
+    let part = MechanicalPart::new(model.dofs.clone(), l.mass, l.damping, l.stiffness)?;
+    let inputs = model
+        .inputs
+        .iter()
+        .enumerate()
+        .filter(|(_, i)| i.kind == mil_structure::model::InputKind::Displacement)
+        .map(|(j, i)| {
+            (
+                i.name.clone(),
+                l.input_stiffness.column(j).into_owned(),
+                l.input_damping.column(j).into_owned(),
+            )
+        })
+        .collect();
+    Ok((part, inputs))
 }
 
 fn location(text: &str) -> Result<ImpedanceLocation> {
@@ -353,16 +394,17 @@ fn selector(part: &MechanicalPart, dofs: &[String], what: &str) -> Result<DMatri
     Ok(q)
 }
 
-fn custom_structure(file: &SetupFile, sample_period_s: f64) -> Result<Structure> {
-    let numerical = match &file.numerical {
-        Some(p) => part(p, "numerical")?,
-        None => MechanicalPart::massless(),
+fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Result<Structure> {
+    let (numerical, numerical_couplings) = match &file.numerical {
+        Some(p) => part(p, "numerical", folder)?,
+        None => (MechanicalPart::massless(), Vec::new()),
     };
-    let physical = part(
+    let (physical, physical_couplings) = part(
         file.physical
             .as_ref()
             .ok_or_else(|| setup_error("a custom model needs [physical]"))?,
         "physical",
+        folder,
     )?;
     let i = file
         .interface
@@ -439,6 +481,32 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64) -> Result<Structure>
             input.interface_position = DVector::from_vec(s.interface_position.clone());
         }
         inputs.push(input);
+    }
+    // The structure files' displacement inputs, by name.
+    for (couplings, numerical_part) in [(numerical_couplings, true), (physical_couplings, false)] {
+        for (name, stiffness, damping) in couplings {
+            let k = match inputs.iter().position(|i| i.name == name) {
+                Some(k) => k,
+                None => {
+                    inputs.push(ExternalInput::new(
+                        &name,
+                        "m",
+                        numerical.len(),
+                        physical.len(),
+                        m,
+                    ));
+                    inputs.len() - 1
+                }
+            };
+            let input = &mut inputs[k];
+            if numerical_part {
+                input.numerical_stiffness += &stiffness;
+                input.numerical_damping += &damping;
+            } else {
+                input.physical_stiffness += &stiffness;
+                input.physical_damping += &damping;
+            }
+        }
     }
     Ok(Structure {
         numerical,
@@ -551,7 +619,7 @@ impl Setup {
             "tyre" => file.model.tyre.structure(1.0 / fs)?,
             "aero" => file.model.aero.structure()?,
             "two-dof" => file.model.two_dof.structure()?,
-            "custom" => custom_structure(file, 1.0 / fs)?,
+            "custom" => custom_structure(file, 1.0 / fs, folder)?,
             other => {
                 return Err(setup_error(format!(
                     "model example {other:?}: use \"tyre\", \"aero\", \"two-dof\" or \"custom\""

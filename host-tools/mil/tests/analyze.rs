@@ -202,3 +202,71 @@ fn custom_two_dof_equals_the_built_in_example() {
         }
     }
 }
+
+/// A structure file is a set-up's physical part: the 2-DOF small-actuator set-up, whose
+/// `[physical] structure = "../sim/msd-physical.toml"` is what `mil sim` runs on the rig (and
+/// what `mil diagnose` reads and writes), gives the same analysis as the part's matrices
+/// written out, to rounding; and a structure with a hidden cubic spring analyses as its
+/// linear part.
+#[test]
+fn a_structure_file_is_the_physical_part() {
+    let text = std::fs::read_to_string(setup("two-dof-small-actuator.toml")).unwrap();
+    let matrices =
+        "[physical]\ndofs = [\"x_p\"]\nmass = [[5.0]]\ndamping = [[10.0]]\nstiffness = [[2.0e4]]\n";
+    let shipped = "[physical]\nstructure = \"../sim/msd-physical.toml\"\n";
+    assert!(text.contains(shipped));
+    // In a folder of its own, with the structure file beside it.
+    let out = tempfile::tempdir().unwrap();
+    let physical = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim/msd-physical.toml");
+    let linear = std::fs::read_to_string(physical).unwrap();
+    std::fs::write(
+        out.path().join("cubic.toml"),
+        linear + "\n[[effect]]\neffect = \"cubic_stiffness\"\nelement = \"k_p, c_p to the bed\"\nparameters = { stiffness_n_per_m3 = 1e9 }\n",
+    )
+    .unwrap();
+    let with_structure = out.path().join("two-dof-structure.toml");
+    let report = |physical: &str| {
+        std::fs::write(&with_structure, text.replace(shipped, physical)).unwrap();
+        run_analyze(&with_structure, out.path()).unwrap().report
+    };
+    let a = report(matrices);
+    let b = run_analyze(&setup("two-dof-small-actuator.toml"), out.path())
+        .unwrap()
+        .report;
+    let c = report("[physical]\nstructure = \"cubic.toml\"\n");
+    let (ja, jb) = (
+        serde_json::to_value(&a).unwrap(),
+        serde_json::to_value(&b).unwrap(),
+    );
+    fn same(a: &serde_json::Value, b: &serde_json::Value, at: &str) {
+        use serde_json::Value::*;
+        match (a, b) {
+            (Number(x), Number(y)) => {
+                let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+                assert!((x - y).abs() <= 1e-9 * x.abs().max(1.0), "{at}: {x} vs {y}");
+            }
+            (Array(x), Array(y)) => {
+                assert_eq!(x.len(), y.len(), "{at}");
+                for (i, (x, y)) in x.iter().zip(y).enumerate() {
+                    same(x, y, &format!("{at}[{i}]"));
+                }
+            }
+            (Object(x), Object(y)) => {
+                for (k, v) in x {
+                    if k == "name" || k == "setup" {
+                        continue;
+                    }
+                    same(v, &y[k], &format!("{at}.{k}"));
+                }
+            }
+            (x, y) => assert_eq!(x, y, "{at}"),
+        }
+    }
+    same(&ja, &jb, "report");
+    same(
+        &ja,
+        &serde_json::to_value(&c).unwrap(),
+        "report with the cubic spring",
+    );
+    assert!(ja.to_string().len() > 1000, "a report with figures");
+}
