@@ -7,6 +7,33 @@ use mil::config::{Config, DEFAULT_TYRE_CONFIG};
 use mil::xcp::BoardArgs;
 use std::path::{Path, PathBuf};
 
+/// `print!` to stdout that ends the program quietly (status 0) when stdout is a closed pipe
+/// (`mil sim | head`), where `print!` would panic; other write errors are returned.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            return Err(e.into());
+        }
+    }};
+}
+
+/// `println!` as [`out!`].
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            return Err(e.into());
+        }
+    }};
+}
+
 #[derive(Parser)]
 #[command(
     name = "mil",
@@ -297,11 +324,11 @@ fn run(cli: Cli) -> Result<()> {
             result.write_csv(&csv)?;
             mil::plot::plot_run(&result, &svg)?;
             if json {
-                println!("{}", serde_json::to_string(&result.summary)?);
+                outln!("{}", serde_json::to_string(&result.summary)?);
             } else {
-                print!("{}", result.table());
-                println!("time histories: {}", csv.display());
-                println!("plot:           {}", svg.display());
+                out!("{}", result.table());
+                outln!("time histories: {}", csv.display());
+                outln!("plot:           {}", svg.display());
             }
             Ok(())
         }
@@ -344,18 +371,18 @@ fn run(cli: Cli) -> Result<()> {
             })?;
             bar.finish_and_clear();
             if json {
-                println!("{}", serde_json::to_string(&result.summary)?);
+                outln!("{}", serde_json::to_string(&result.summary)?);
             } else {
-                print!("{}", result.table());
+                out!("{}", result.table());
             }
             Ok(())
         }
         Command::Analyze { setup, out, json } => {
             let result = mil::analyze::run_analyze(&setup, &out)?;
             if json {
-                println!("{}", serde_json::to_string(&result.summary())?);
+                outln!("{}", serde_json::to_string(&result.summary())?);
             } else {
-                print!("{}", result.table());
+                out!("{}", result.table());
             }
             Ok(())
         }
@@ -382,9 +409,9 @@ fn run(cli: Cli) -> Result<()> {
                 out,
             })?;
             if json {
-                println!("{}", serde_json::to_string(&summary)?);
+                outln!("{}", serde_json::to_string(&summary)?);
             } else {
-                println!(
+                outln!(
                     "{} points, {:.2}-{:.1} Hz, {} segments at {} Hz, lowest coherence {:.3}\nwrote {}",
                     summary.points,
                     summary.frequency_range_hz.0,
@@ -431,12 +458,12 @@ fn run(cli: Cli) -> Result<()> {
             result.write_csv(&csv)?;
             let plots = result.write_plots(&out)?;
             if json {
-                println!("{}", serde_json::to_string(&result.summary)?);
+                outln!("{}", serde_json::to_string(&result.summary)?);
             } else {
-                print!("{}", result.table());
-                println!("time histories: {}", csv.display());
+                out!("{}", result.table());
+                outln!("time histories: {}", csv.display());
                 for p in &plots {
-                    println!("plot:           {}", p.display());
+                    outln!("plot:           {}", p.display());
                 }
             }
             Ok(())
@@ -474,9 +501,9 @@ fn run(cli: Cli) -> Result<()> {
             bar.finish_and_clear();
             let result = result?;
             if json {
-                println!("{}", serde_json::to_string(&result.json_report())?);
+                outln!("{}", serde_json::to_string(&result.json_report())?);
             } else {
-                print!("{}", result.table());
+                out!("{}", result.table());
             }
             Ok(())
         }
@@ -494,7 +521,7 @@ fn run(cli: Cli) -> Result<()> {
                 std::fs::create_dir_all(dir)?;
             }
             std::fs::write(&out, mil_a2l::generate(&layout, &version))?;
-            println!(
+            outln!(
                 "{}: calibration page at 0x{:08X} ({} bytes), measurements at 0x{:08X} ({} bytes)",
                 out.display(),
                 layout.calibration.address,
@@ -505,7 +532,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Check { file, against } => {
-            println!("{}", mil::check::check(&file, against.as_deref())?);
+            outln!("{}", mil::check::check(&file, against.as_deref())?);
             Ok(())
         }
         Command::Param { command } => run_param(command),
@@ -518,13 +545,13 @@ fn run_param(command: ParamCommand) -> Result<()> {
     match command {
         ParamCommand::List { a2l } => {
             let a2l = mil::xcp::load_a2l(&a2l)?;
-            print!("{}", mil::param::list_table(&a2l));
+            out!("{}", mil::param::list_table(&a2l));
         }
         ParamCommand::Get { names, board } => {
             let a2l = mil::xcp::load_a2l(&board.a2l)?;
             mil::param::resolve(&a2l, &names)?;
             let table = mil::xcp::session(&board, &a2l, |m| mil::param::get(m, &a2l, &names))?;
-            print!("{table}");
+            out!("{table}");
         }
         ParamCommand::Set { assignments, board } => {
             let a2l = mil::xcp::load_a2l(&board.a2l)?;
@@ -535,13 +562,13 @@ fn run_param(command: ParamCommand) -> Result<()> {
             let changes = mil::xcp::session(&board, &a2l, |m| {
                 mil::param::set(m, &a2l, &assignments, &secret)
             })?;
-            print!("{}", mil::param::changes_table(&a2l, &changes));
+            out!("{}", mil::param::changes_table(&a2l, &changes));
         }
         ParamCommand::Store { board } => {
             let a2l = mil::xcp::load_a2l(&board.a2l)?;
             let secret = mil::xcp::secret(&board)?;
             let line = mil::xcp::session(&board, &a2l, |m| mil::param::store(m, &a2l, &secret))?;
-            print!("{line}");
+            out!("{line}");
         }
     }
     Ok(())
@@ -613,7 +640,7 @@ fn run_daq(command: DaqCommand) -> Result<()> {
             }
         )
     };
-    println!(
+    outln!(
         "{}: {} samples over {:.3} s ({steps}; {} CAN frames per sample){}",
         out.display(),
         recorded.samples,
@@ -629,9 +656,9 @@ fn run_daq(command: DaqCommand) -> Result<()> {
         .iter()
         .map(|i| format!("{} [{}]", i.name, i.unit_or_dash()))
         .collect();
-    println!("columns: time [s], {}", units.join(", "));
+    outln!("columns: time [s], {}", units.join(", "));
     if recorded.stats.incomplete > 0 {
-        println!(
+        outln!(
             "incomplete cycles dropped (lost DTOs): {}",
             recorded.stats.incomplete
         );
@@ -647,6 +674,6 @@ fn run_filter(command: FilterCommand) -> Result<()> {
     let changes = mil::xcp::session(&board, &a2l, |m| {
         mil::filter_upload::upload(m, &plan, &secret)
     })?;
-    print!("{}", mil::filter_upload::table(&plan, &changes));
+    out!("{}", mil::filter_upload::table(&plan, &changes));
     Ok(())
 }

@@ -259,3 +259,23 @@ proptest! {
         }
     }
 }
+
+/// `mil sim … | head -1`: when stdout is closed early the command ends quietly with status
+/// 0 instead of panicking on the broken pipe.
+#[test]
+fn a_closed_stdout_pipe_ends_quietly() {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
+        .args(["sim", "--out"])
+        .arg(scratch("pipe"))
+        .arg(manifest().join("examples/sim/msd.toml"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Closed long before the 20 s run has anything to print.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+}
