@@ -522,9 +522,12 @@ impl Config {
                 if self.speed.is_some() {
                     bail!("[speed] is for the aero model");
                 }
-                // The static deflection tells a stiffness in N/mm (1000x soft).
+                // The static deflection tells a stiffness in N/mm (1000x soft): the structure
+                // file's bound on a static compression.
                 let deflection = f64::from(t.static_load_n) / f64::from(t.stiffness_n_per_m);
-                if t.stiffness_n_per_m > 0.0 && deflection > 0.2 {
+                if t.stiffness_n_per_m > 0.0
+                    && deflection > mil_structure::plausible::MAX_STATIC_COMPRESSION_M
+                {
                     bail!(
                         "tyre.stiffness_n_per_m = {}: under tyre.static_load_n = {} N the tyre \
                          would deflect {deflection:.2} m; a stiffness in N/mm ({} N/mm = {:e} \

@@ -8,6 +8,7 @@
 //! The hidden effects are sized from the linear run's own amplitudes (a rule, not tuned per
 //! case), and each case runs on a road seed used nowhere else.
 
+use mil_numerics::record::Table;
 use mil_numerics::rng::SplitMix64;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -87,28 +88,13 @@ fn sim(config: &Path, out: &Path) -> PathBuf {
     out.join("sim.csv")
 }
 
-/// The columns of a `mil sim` CSV by name.
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let names: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    let mut cols = vec![Vec::new(); names.len()];
-    for line in lines {
-        for (c, v) in cols.iter_mut().zip(line.split(',')) {
-            c.push(v.parse::<f64>().unwrap());
-        }
-    }
-    (names, cols)
+/// A `mil sim` CSV, through the workspace's record reader.
+fn read_csv(path: &Path) -> Table {
+    mil_numerics::record::read(path).unwrap()
 }
 
-fn column<'a>(csv: &'a (Vec<String>, Vec<Vec<f64>>), name: &str) -> &'a [f64] {
-    let i = csv.0.iter().position(|n| n == name).unwrap();
-    &csv.1[i]
+fn column<'a>(csv: &'a Table, name: &str) -> &'a [f64] {
+    &csv.columns[csv.index(name).unwrap()]
 }
 
 fn rms(x: &[f64]) -> f64 {
@@ -123,7 +109,11 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
 /// The record with white measurement noise of `fraction` of each channel's RMS on the
 /// load cell and position columns, written next to it.
 fn noisy(path: &Path, fraction: f64, seed: u64) -> PathBuf {
-    let (names, mut cols) = read_csv(path);
+    let Table {
+        names,
+        columns: mut cols,
+        ..
+    } = read_csv(path);
     let mut rng = SplitMix64::new(seed);
     for (name, col) in names.iter().zip(cols.iter_mut()) {
         if name == "mil_force_0" || name == "mil_position_0" {

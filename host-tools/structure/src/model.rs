@@ -229,24 +229,22 @@ fn preloads(file: &ModelFile, elements: &mut [Element], static_force: &[f64]) ->
     let n = static_force.len();
     let weight: f64 = static_force.iter().map(|f| f.abs()).sum();
     if elements.iter().any(|e| e.preload_n != 0.0) {
-        for (i, name) in file.dofs.iter().map(|d| &d.name).enumerate() {
-            let carried: f64 = elements.iter().map(|e| e.a[i] * e.preload_n).sum();
-            let residual = static_force[i] - carried;
-            if residual.abs() > 0.01 * weight.max(f64::MIN_POSITIVE) {
-                let in_kg = (carried * g - static_force[i]).abs() < 0.01 * weight;
-                return Err(Error::Model(format!(
-                    "the elements' preload_n carry {:.1} N at dof {name:?}, but its weight is \
-                     {:.1} N (gravity_m_per_s2 = {g}){}: state every preload_n in N so that they \
-                     balance the weights, or leave them all out and they follow from gravity",
-                    -carried,
-                    -static_force[i],
-                    if in_kg {
-                        " -- preloads given in kg?"
-                    } else {
-                        ""
-                    }
-                )));
-            }
+        let loads: Vec<(&[f64], f64)> = elements.iter().map(|e| (&e.a[..], e.preload_n)).collect();
+        if let Some((i, carried)) = unbalanced(static_force, &loads) {
+            let in_kg = (carried * g - static_force[i]).abs() < 0.01 * weight;
+            return Err(Error::Model(format!(
+                "the elements' preload_n carry {:.1} N at dof {:?}, but its weight is {:.1} N \
+                 (gravity_m_per_s2 = {g}){}: state every preload_n in N so that they balance the \
+                 weights, or leave them all out and they follow from gravity",
+                -carried,
+                file.dofs[i].name,
+                -static_force[i],
+                if in_kg {
+                    " -- preloads given in kg?"
+                } else {
+                    ""
+                }
+            )));
         }
         return Ok(());
     }
@@ -274,6 +272,27 @@ fn preloads(file: &ModelFile, elements: &mut [Element], static_force: &[f64]) ->
         e.preload_n = e.law.k * e.a.iter().zip(u.iter()).map(|(a, u)| a * u).sum::<f64>();
     }
     Ok(())
+}
+
+/// The weights `−m g` per DOF (translations; a rotation's inertia has none) with gravity
+/// `g` (m/s²).
+fn weights(dofs: &[DofSpec], g: f64) -> Vec<f64> {
+    dofs.iter()
+        .map(|d| match d.kind {
+            DofKind::Translation => -d.mass * g,
+            DofKind::Rotation => 0.0,
+        })
+        .collect()
+}
+
+/// The first DOF whose weight `weights[i]` the preloads `(a_e, P_e)` do not carry
+/// (`Σ a_e[i] P_e`) within 1 % of the total weight, with what they carry there.
+fn unbalanced(weights: &[f64], loads: &[(&[f64], f64)]) -> Option<(usize, f64)> {
+    let total: f64 = weights.iter().map(|w| w.abs()).sum();
+    weights.iter().enumerate().find_map(|(i, w)| {
+        let carried: f64 = loads.iter().map(|(a, p)| a[i] * p).sum();
+        ((w - carried).abs() > 0.01 * total.max(f64::MIN_POSITIVE)).then_some((i, carried))
+    })
 }
 
 /// The linearised structure `M q̈ + C q̇ + K q = K_w w + C_w ẇ + T f + bias` about the
@@ -610,14 +629,7 @@ impl Model {
         let kinds: Vec<DofKind> = file.dofs.iter().map(|d| d.kind).collect();
         let static_force: Vec<f64> = match file.gravity_m_per_s2 {
             None => vec![0.0; n],
-            Some(g) if g.is_finite() && g >= 0.0 => file
-                .dofs
-                .iter()
-                .map(|d| match d.kind {
-                    DofKind::Translation => -d.mass * g,
-                    DofKind::Rotation => 0.0,
-                })
-                .collect(),
+            Some(g) if g.is_finite() && g >= 0.0 => weights(&file.dofs, g),
             Some(g) => return err(format!("gravity_m_per_s2 must be >= 0, got {g}")),
         };
         preloads(&file, &mut elements, &static_force)?;
@@ -771,21 +783,14 @@ impl Model {
         if let Some(g) = f.gravity_m_per_s2 {
             // Stated preloads that no longer carry the (recalibrated) weights go: they then
             // follow from gravity.
-            let weight: f64 = f.dofs.iter().map(|d| d.mass * g).sum();
-            let unbalanced = f.dofs.iter().enumerate().any(|(i, d)| {
-                let w = match d.kind {
-                    DofKind::Translation => -d.mass * g,
-                    DofKind::Rotation => 0.0,
-                };
-                let carried: f64 = f
-                    .elements
-                    .iter()
-                    .zip(&self.elements)
-                    .map(|(spec, e)| e.a[i] * spec.preload_n)
-                    .sum();
-                (w - carried).abs() > 0.01 * weight
-            });
-            if unbalanced {
+            let stated = f.elements.iter().any(|spec| spec.preload_n != 0.0);
+            let loads: Vec<(&[f64], f64)> = f
+                .elements
+                .iter()
+                .zip(&self.elements)
+                .map(|(spec, e)| (&e.a[..], spec.preload_n))
+                .collect();
+            if stated && unbalanced(&weights(&f.dofs, g), &loads).is_some() {
                 for spec in &mut f.elements {
                     spec.preload_n = 0.0;
                 }
