@@ -325,13 +325,12 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// Runs `mil analyze` on a set-up file.
+/// Runs `mil analyze` on a MiL set-up.
 ///
 /// # Errors
 /// Invalid set-up, analysis failure, or unwritable output folder.
-pub fn run_analyze(setup_path: &Path, out: &Path) -> Result<AnalyzeOutput> {
-    let setup = Setup::read(setup_path)
-        .with_context(|| format!("loading set-up {}", setup_path.display()))?;
+pub fn run_analyze(setup: &crate::setup::SetUp, out: &Path) -> Result<AnalyzeOutput> {
+    let setup = setup.analysis()?;
     let report = analyze(&setup.system, &setup.options)?;
     let files = write_outputs(&report, out)?;
     Ok(AnalyzeOutput {

@@ -4,16 +4,15 @@
 //!
 //! | file | recognised by | validated as |
 //! |---|---|---|
-//! | structure (`[[dof]]`) | TOML with `dof` | `mil diagnose` and `[rig.structure]`: schema, names, effects, statics, plausibility |
-//! | run configuration | TOML with `[run]` | `mil sim` (with a rig structure) or `mil run` |
-//! | analysis set-up | TOML with `configuration` | `mil analyze` / `mil design-filter` |
+//! | structure (`[[dof]]`) | TOML with `dof` | `mil diagnose` and a set-up's part: schema, names, effects, statics, plausibility |
+//! | MiL set-up | TOML with `[controller]` | `mil analyze` / `mil design-filter`, and for configuration 4 `mil sim` / `mil run` (board parameters, rig, excitation, the comparison) |
 //! | filter file | JSON | `[controller] filter`, `mil filter upload`: model-core's checks |
 //! | record | CSV | `mil diagnose`'s reader: header, units, uniform time base |
 //!
 //! A record checked `--against` a structure must also hold the structure's input and output
 //! columns, as `mil diagnose` requires.
 
-use crate::config::Config;
+use crate::setup::SetUp;
 use anyhow::{anyhow, bail, Context, Result};
 use mil_diagnose::{Model, Record};
 use std::path::Path;
@@ -21,11 +20,9 @@ use std::path::Path;
 /// What kind of file a path holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FileKind {
-    /// A structure file (`mil diagnose`'s model, `[rig.structure]`).
+    /// A structure file (`mil diagnose`'s model, a set-up's part).
     Structure,
-    /// A run configuration (`mil run`, `mil sim`).
-    RunConfiguration,
-    /// An analysis set-up (`mil analyze`, `mil design-filter`).
+    /// A MiL set-up (`mil analyze`, `mil design-filter`, `mil sim`, `mil run`).
     Setup,
     /// A command-filter file (JSON).
     Filter,
@@ -38,8 +35,7 @@ impl FileKind {
     pub fn name(self) -> &'static str {
         match self {
             FileKind::Structure => "structure",
-            FileKind::RunConfiguration => "run configuration",
-            FileKind::Setup => "analysis set-up",
+            FileKind::Setup => "MiL set-up",
             FileKind::Filter => "filter file",
             FileKind::Record => "record",
         }
@@ -66,14 +62,11 @@ pub fn kind_of(path: &Path) -> Result<FileKind> {
         .map_err(|e| anyhow!("{}: not TOML, JSON or CSV: {e}", path.display()))?;
     if table.contains_key("dof") {
         Ok(FileKind::Structure)
-    } else if table.contains_key("run") {
-        Ok(FileKind::RunConfiguration)
-    } else if table.contains_key("configuration") {
+    } else if table.contains_key("controller") {
         Ok(FileKind::Setup)
     } else {
         bail!(
-            "{}: not a structure ([[dof]]), run configuration ([run]) or analysis set-up \
-             (configuration = ...); its keys: {:?}",
+            "{}: not a structure ([[dof]]) or a MiL set-up ([controller]); its keys: {:?}",
             path.display(),
             table.keys().collect::<Vec<_>>()
         )
@@ -115,20 +108,26 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
                 }
             )
         }
-        FileKind::RunConfiguration => {
-            let c = Config::from_file(path)?;
-            // A configuration for the simulated rig is checked as `mil sim` runs it.
-            if is_sim_configuration(path)? {
-                c.validate_sim()?;
-                format!("run configuration ({:?}, as mil sim runs it)", c.model.kind)
-            } else {
-                c.validate()?;
-                format!("run configuration ({:?})", c.model.kind)
-            }
-        }
         FileKind::Setup => {
-            let s = mil_analysis::setup::Setup::read(path).map_err(|e| anyhow!("{e}"))?;
-            format!("analysis set-up {:?}", s.name)
+            let s = SetUp::read(path)?;
+            let analysis = s.analysis()?;
+            let configuration = analysis.system.configuration();
+            if configuration == 4 {
+                // What the board and the simulated rig run: checked as `mil sim` runs it.
+                let config = s.sim()?;
+                crate::sim::prepare(&config)?;
+                format!(
+                    "MiL set-up {:?} (configuration 4, {:?} model: for mil analyze, \
+                     design-filter, sim and run)",
+                    s.name, config.model.kind
+                )
+            } else {
+                format!(
+                    "MiL set-up {:?} (configuration {configuration}: for mil analyze and \
+                     design-filter; the board runs configuration 4)",
+                    s.name
+                )
+            }
         }
         FileKind::Filter => {
             let (f, cascade) =
@@ -156,15 +155,6 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
         }
     };
     Ok(format!("{}: valid {what}", path.display()))
-}
-
-/// Whether a run configuration is `mil sim`'s: it has a table only `mil sim` reads.
-fn is_sim_configuration(path: &Path) -> Result<bool> {
-    let text = std::fs::read_to_string(path)?;
-    let table: toml::Table = toml::from_str(&text)?;
-    Ok(["rig", "sensors", "links", "compare"]
-        .iter()
-        .any(|k| table.contains_key(*k)))
 }
 
 fn round1(v: &[f64]) -> Vec<f64> {

@@ -1,7 +1,6 @@
-//! Run configuration (TOML), validated once at the boundary into model-core's parameter set.
-//!
-//! Units are SI and named in every key (`_m`, `_hz`, `_n_per_m`, ...). Unknown keys are
-//! errors, so a misspelt parameter never silently falls back to a default.
+//! The run of a MiL set-up ([`crate::setup::SetUp::run`]): the board's model, limits and
+//! filter, the simulated rig, the excitation, validated once into model-core's parameter
+//! set. Built from the set-up file, never read from a file of its own.
 
 use crate::signals::{RoadInput, SpeedInput, SpeedProfile};
 use anyhow::{bail, Context, Result};
@@ -10,14 +9,7 @@ use model_core::{
     PreparedParams, SubstructureModel, SubstructureParams, TyreModelParams, TyreParams, MAX_DOF,
 };
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
-
-/// The tyre example, built into the tool: `mil run` without a file uses it.
-pub const DEFAULT_TYRE_CONFIG: &str = include_str!("../examples/tyre.toml");
-
-/// The tyre example on the simulated rig, built into the tool: `mil sim` without a file
-/// uses it.
-pub const DEFAULT_SIM_CONFIG: &str = include_str!("../examples/sim/tyre.toml");
+use std::path::PathBuf;
 
 /// Which numerical model a run uses.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
@@ -37,8 +29,7 @@ pub enum ModelKind {
 pub const MAX_SUBSTRUCTURE_CHANNELS: usize = 4;
 
 /// A whole run configuration.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct Config {
     /// Timing of the run.
     pub run: RunSection,
@@ -58,28 +49,27 @@ pub struct Config {
     /// Road input.
     pub input: RoadInput,
     /// The board's command filter (optional; none: identity).
-    #[serde(default)]
     pub controller: ControllerSection,
     /// The simulated rig (`mil sim`; defaults: the paper's rig without effects).
-    #[serde(default)]
     pub rig: RigSection,
     /// The rig's transducers (`mil sim`; default ideal).
-    #[serde(default)]
     pub sensors: SensorsSection,
     /// The CAN link between rig and board (`mil sim`; default ideal).
-    #[serde(default)]
     pub links: LinksSection,
     /// What `mil sim` compares the estimated response with.
-    #[serde(default)]
     pub compare: CompareSection,
-    /// Folder of the configuration file (for relative paths); not read from TOML.
-    #[serde(skip)]
+    /// The set-up's linear analysis, whose predictions `mil sim` compares the run with
+    /// (none: only the emulated system).
+    pub analysis: Option<Box<mil_analysis::setup::Setup>>,
+    /// The analysis' inputs the run's road (channel 0's) drives: the prediction is the sum
+    /// of their responses.
+    pub analysis_inputs: Vec<String>,
+    /// Folder of the set-up file (relative paths).
     pub base: PathBuf,
 }
 
 /// `[run]`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct RunSection {
     /// Control loop rate (Hz); the controller's sample period is its inverse.
     pub sample_rate_hz: f64,
@@ -88,8 +78,7 @@ pub struct RunSection {
 }
 
 /// `[model]`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct ModelSection {
     /// The model.
     pub kind: ModelKind,
@@ -112,8 +101,7 @@ pub struct TyreSection {
 }
 
 /// `[aero]`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct AeroSection {
     /// `K_i` rows `[F_z; M_θ]`, columns `[z; θ]` (N/m, N/rad; N m/m, N m/rad).
     pub stiffness: [[f32; 2]; 2],
@@ -126,7 +114,6 @@ pub struct AeroSection {
     /// Centroid to rear axle (m).
     pub rear_axle_m: f32,
     /// Constant vehicle speed during the run (m/s); or give a `[speed]` table instead.
-    #[serde(default)]
     pub speed_m_per_s: Option<f32>,
 }
 
@@ -137,8 +124,7 @@ pub struct AeroSection {
 /// move under `−F_i` and their road springs:
 /// `M ẍ + C' ẋ + K' x = G_k w + G_c ẇ − Σ_c e_d(c) F_i,c` (`K'`, `C'`: the matrices below
 /// plus the road springs and dampers on the diagonal).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct SubstructureSection {
     /// DOF names, 1 to 6.
     pub dofs: Vec<String>,
@@ -158,8 +144,7 @@ pub struct SubstructureSection {
 }
 
 /// `[[substructure.channels]]`: one actuator channel of the substructure.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct SubstructureChannel {
     /// The numerical DOF the interface `B_i` joins to the channel's attachment point.
     pub dof: String,
@@ -169,27 +154,22 @@ pub struct SubstructureChannel {
     pub interface_damping_n_s_per_m: f32,
     /// Springs and dampers from numerical DOFs to the channel's road input `w_c` (the run's
     /// road input of this channel).
-    #[serde(default)]
     pub road: Vec<RoadCoupling>,
 }
 
 /// A spring and damper from a numerical DOF to a channel's road input.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct RoadCoupling {
     /// The numerical DOF.
     pub dof: String,
     /// Stiffness (N/m).
-    #[serde(default)]
     pub stiffness_n_per_m: f32,
     /// Damping (N s/m).
-    #[serde(default)]
     pub damping_n_s_per_m: f32,
 }
 
 /// `[controller]`.
-#[derive(Clone, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, Default)]
 pub struct ControllerSection {
     /// Command-filter file (`mil design-filter`'s JSON), relative to the configuration
     /// file; its sample rate must be the run's. None: no filter.
@@ -197,8 +177,7 @@ pub struct ControllerSection {
 }
 
 /// `[rig]`: the simulated rig of `mil sim`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug)]
 pub struct RigSection {
     /// RK4 step of the plants (s), at most the control period.
     pub internal_step_s: f64,
@@ -224,11 +203,14 @@ pub struct RigSection {
     /// The physical specimen of a substructure run (required there): a structure file (the
     /// schema of `mil diagnose`'s models and `updated.toml`) and where the actuators act.
     pub structure: Option<StructureOnRig>,
+    /// The quarter car's masses (tyre rig); default the paper's.
+    pub quarter_car: Option<mil_analysis::examples::TyreExample>,
+    /// The half car's masses and axles (aero rig); default the paper's.
+    pub half_car: Option<mil_analysis::examples::AeroExample>,
 }
 
 /// `[rig.structure]`: a structure file on the simulated rig.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct StructureOnRig {
     /// The structure file, relative to the configuration. It must be at rest with zero
     /// actuator force: its springs carry its weights (`gravity_m_per_s2`).
@@ -236,8 +218,7 @@ pub struct StructureOnRig {
     /// Per channel, the DOF or point the actuator drives (along its positive direction).
     pub attach: Vec<String>,
     /// The run's road input (`road_0` …) each of the structure's displacement inputs
-    /// follows, by input name.
-    #[serde(default)]
+    /// follows, by input name, or `"fixed"` (held at zero: the rig's bed).
     pub roads: std::collections::BTreeMap<String, String>,
 }
 
@@ -252,6 +233,8 @@ impl Default for RigSection {
             front_suspension: None,
             rear_suspension: None,
             structure: None,
+            quarter_car: None,
+            half_car: None,
         }
     }
 }
@@ -278,20 +261,11 @@ pub struct LinksSection {
     pub demand: mil_rig::link::LinkSpec,
 }
 
-/// `[compare]`: the band of the response comparison and the analysis set-up to compare
-/// with.
+/// `[compare]`: how `mil sim` compares the run with the emulated system and with the
+/// set-up's analysis.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CompareSection {
-    /// `mil analyze` set-up (TOML) of the same rig, relative to the configuration file:
-    /// its MiL and emulated predictions are compared with the responses estimated from the
-    /// run. None: only MiL against emulated.
-    pub analysis: Option<String>,
-    /// The set-up's inputs the run's road input (channel 0's) drives; the prediction is the
-    /// sum of their responses. Default: `["road"]` (tyre), `["road_heave"]` (aero); required
-    /// for a substructure (e.g. `["z_n"]`, or `["z_n", "z_p"]` when the specimen stands on
-    /// the same road).
-    pub analysis_inputs: Option<Vec<String>>,
     /// Lower edge of the comparison band (Hz).
     pub f_min_hz: f64,
     /// Upper edge of the comparison band (Hz).
@@ -307,8 +281,6 @@ pub struct CompareSection {
 impl Default for CompareSection {
     fn default() -> Self {
         Self {
-            analysis: None,
-            analysis_inputs: None,
             f_min_hz: 1.0,
             f_max_hz: 30.0,
             segment: 4096,
@@ -381,19 +353,14 @@ pub enum PreparedSubstructure {
 }
 
 impl Config {
-    /// Parses TOML text; `base` is the folder relative paths refer to.
-    pub fn from_toml(text: &str, base: &Path) -> Result<Self> {
-        let mut c: Config = toml::from_str(text).context("invalid run configuration")?;
-        c.base = base.to_path_buf();
-        Ok(c)
+    /// The tyre rig's quarter car: `[rig] quarter_car` or the paper's.
+    pub fn quarter_car(&self) -> mil_analysis::examples::TyreExample {
+        self.rig.quarter_car.unwrap_or_default()
     }
 
-    /// Reads and parses a configuration file.
-    pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        Self::from_toml(&text, &base).with_context(|| format!("in {}", path.display()))
+    /// The aero rig's half car: `[rig] half_car` or the paper's.
+    pub fn half_car(&self) -> mil_analysis::examples::AeroExample {
+        self.rig.half_car.unwrap_or_default()
     }
 
     /// Number of actuator channels of the configured model.
@@ -422,14 +389,14 @@ impl Config {
                 speed_m_per_s: f64::from(v),
             }
             .profile(&self.base, self.end_s())
-            .context("aero.speed_m_per_s"),
+            .context("excitation.speed_m_per_s"),
             (None, Some(speed)) => speed.profile(&self.base, self.end_s()),
             (Some(_), Some(_)) => bail!(
-                "the speed is given twice: use either aero.speed_m_per_s (constant) or a \
-                 [speed] table"
+                "the speed is given twice: use either excitation.speed_m_per_s (constant) or \
+                 excitation.speed (a profile)"
             ),
             (None, None) => bail!(
-                "the aero model needs a speed: aero.speed_m_per_s (constant) or a [speed] table"
+                "the aero model needs a speed: excitation.speed_m_per_s (constant) or excitation.speed"
             ),
         }
     }
@@ -464,7 +431,7 @@ impl Config {
     pub fn validate_sim(&self) -> Result<Validated> {
         let validated = self.validate()?;
         if let (ModelKind::Tyre, Some(tyre)) = (self.model.kind, &self.tyre) {
-            let car = mil_analysis::examples::TyreExample::default();
+            let car = self.quarter_car();
             let weight =
                 (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2;
             let load = f64::from(tyre.static_load_n);
@@ -472,7 +439,7 @@ impl Config {
                 let kg =
                     (load * mil_rig::specimen::GRAVITY_M_PER_S2 - weight).abs() < 0.01 * weight;
                 bail!(
-                    "tyre.static_load_n is {load} N, but the rig's quarter car weighs {weight:.1} N \
+                    "numerical.tyre.static_load_n is {load} N, but the rig's quarter car weighs {weight:.1} N \
                      ((m_s + m_u) g): the rig would not start at rest{}",
                     if kg { " (the load given in kg?)" } else { "" }
                 );
@@ -493,11 +460,11 @@ impl Config {
     pub fn validate(&self) -> Result<Validated> {
         let fs = self.run.sample_rate_hz;
         if !(fs.is_finite() && (100.0..=20_000.0).contains(&fs)) {
-            bail!("run.sample_rate_hz must be in [100, 20000] Hz, got {fs}");
+            bail!("controller.sample_rate_hz must be in [100, 20000] Hz, got {fs}");
         }
         let d = self.run.duration_s;
         if !(d.is_finite() && d > 0.0 && d <= 3600.0) {
-            bail!("run.duration_s must be in (0, 3600] s, got {d}");
+            bail!("excitation.duration_s must be in (0, 3600] s, got {d}");
         }
         self.input.validate(fs)?;
         let dt = (1.0 / fs) as f32;
@@ -511,7 +478,7 @@ impl Config {
                 let t = self
                     .tyre
                     .as_ref()
-                    .context("model.kind = \"tyre\" needs a [tyre] table")?;
+                    .context("the tyre run needs [numerical.tyre]")?;
                 let tyre = TyreParams {
                     stiffness: t.stiffness_n_per_m,
                     damping: t.damping_n_s_per_m,
@@ -520,7 +487,7 @@ impl Config {
                     velocity_cutoff_hz: t.velocity_cutoff_hz,
                 };
                 if self.speed.is_some() {
-                    bail!("[speed] is for the aero model");
+                    bail!("excitation.speed is for the aero model");
                 }
                 // The static deflection tells a stiffness in N/mm (1000x soft): the structure
                 // file's bound on a static compression.
@@ -529,7 +496,7 @@ impl Config {
                     && deflection > mil_structure::plausible::MAX_STATIC_COMPRESSION_M
                 {
                     bail!(
-                        "tyre.stiffness_n_per_m = {}: under tyre.static_load_n = {} N the tyre \
+                        "numerical.tyre.stiffness_n_per_m = {}: under a static load of {} N the tyre \
                          would deflect {deflection:.2} m; a stiffness in N/mm ({} N/mm = {:e} \
                          N/m)?",
                         t.stiffness_n_per_m,
@@ -546,7 +513,7 @@ impl Config {
                 let a = self
                     .aero
                     .as_ref()
-                    .context("model.kind = \"aero\" needs an [aero] table")?;
+                    .context("the aero run needs [numerical.aero]")?;
                 let aero = AeroParams {
                     stiffness: a.stiffness,
                     nominal_force: a.nominal_force,
@@ -564,9 +531,9 @@ impl Config {
                 let s = self
                     .substructure
                     .as_ref()
-                    .context("model.kind = \"substructure\" needs a [substructure] table")?;
+                    .context("the substructure run needs [numerical] structure")?;
                 if self.speed.is_some() {
-                    bail!("[speed] is for the aero model");
+                    bail!("excitation.speed is for the aero model");
                 }
                 let prepared = match s.channels.len() {
                     1 => PreparedSubstructure::One(Box::new(
@@ -586,7 +553,7 @@ impl Config {
                             .map_err(param_error)?,
                     )),
                     n => bail!(
-                        "substructure.channels: {n} given, 1 to {MAX_SUBSTRUCTURE_CHANNELS} \
+                        "interface.channels: {n} given, 1 to {MAX_SUBSTRUCTURE_CHANNELS} \
                          supported"
                     ),
                 };
@@ -597,8 +564,8 @@ impl Config {
 }
 
 impl Config {
-    /// The physical specimen of a substructure run, from `[rig.structure]`, and the run's
-    /// road (channel) each of its road inputs follows.
+    /// The physical specimen of a substructure run, from `[physical] structure`, and the
+    /// run's road (channel) each of its road inputs follows (inputs `"fixed"` removed).
     ///
     /// # Errors
     /// None given, an unreadable or invalid structure file, an unknown attachment, an
@@ -608,43 +575,46 @@ impl Config {
         channels: usize,
     ) -> Result<(mil_rig::specimen::Specimen, Vec<usize>)> {
         let on_rig = self.rig.structure.as_ref().context(
-            "model.kind = \"substructure\" needs the physical specimen on the rig: \
-             [rig.structure] (a structure file and the DOF or point each actuator drives)",
+            "a substructure run needs the physical structure on the rig ([physical] structure \
+             and the DOF or point each actuator drives)",
         )?;
         let path = self.base.join(&on_rig.file);
         let model = mil_structure::Model::read(&path)
-            .map_err(|e| anyhow::anyhow!("rig.structure.file: {e}"))?;
+            .map_err(|e| anyhow::anyhow!("physical.structure: {e}"))?;
         let specimen = mil_rig::specimen::Specimen::from_structure(&model, &on_rig.attach)
-            .map_err(|e| anyhow::anyhow!("rig.structure ({}): {e}", path.display()))?;
+            .map_err(|e| anyhow::anyhow!("physical.structure ({}): {e}", path.display()))?;
         if let Some(name) = on_rig.roads.keys().find(|n| !specimen.inputs.contains(n)) {
             bail!(
-                "rig.structure.roads: {name:?} is no displacement input of {} (inputs: {:?})",
+                "physical.roads: {name:?} is no displacement input of {} (inputs: {:?})",
                 path.display(),
                 specimen.inputs
             );
         }
-        let roads = specimen
-            .inputs
-            .iter()
-            .map(|input| {
-                let road = on_rig.roads.get(input).with_context(|| {
-                    format!(
-                        "rig.structure.roads: say which run road the structure's input \
-                         {input:?} follows, e.g. {input} = \"road_0\""
-                    )
-                })?;
-                road.strip_prefix("road_")
-                    .and_then(|c| c.parse::<usize>().ok())
-                    .filter(|c| *c < channels)
-                    .with_context(|| {
-                        format!(
-                            "rig.structure.roads: {input} = {road:?}: name the run's road input \
-                             it follows, road_0 to road_{}",
-                            channels.saturating_sub(1)
-                        )
-                    })
-            })
-            .collect::<Result<_>>()?;
+        // Each input's road; inputs held still (the rig's bed) leave the specimen, their
+        // elements ending at zero.
+        let mut specimen = specimen;
+        let mut roads = Vec::new();
+        for j in (0..specimen.inputs.len()).rev() {
+            let input = &specimen.inputs[j];
+            let road = on_rig.roads.get(input).with_context(|| {
+                format!(
+                    "physical.roads: say which run road the structure's input {input:?} \
+                     follows, e.g. {input} = \"road_0\", or \"fixed\" (the rig's bed)"
+                )
+            })?;
+            match crate::setup::road_channel(road, channels, "physical.roads", input)? {
+                Some(c) => roads.push(c),
+                None => {
+                    specimen.inputs.remove(j);
+                    for e in &mut specimen.elements {
+                        if j < e.input_coefficients.len() {
+                            e.input_coefficients.remove(j);
+                        }
+                    }
+                }
+            }
+        }
+        roads.reverse();
         Ok((specimen, roads))
     }
 }
@@ -666,16 +636,16 @@ impl SubstructureSection {
     pub fn params<const CH: usize>(&self) -> Result<SubstructureParams<CH>> {
         let n = self.dofs.len();
         if !(1..=MAX_DOF).contains(&n) {
-            bail!("substructure.dofs: {n} DOFs, 1 to {MAX_DOF} supported");
+            bail!("numerical.structure: {n} DOFs, the board runs 1 to {MAX_DOF}");
         }
         for (i, d) in self.dofs.iter().enumerate() {
             if self.dofs[..i].contains(d) {
-                bail!("substructure.dofs: {d:?} named twice");
+                bail!("numerical.structure: DOF {d:?} named twice");
             }
         }
         if self.channels.len() != CH {
             bail!(
-                "substructure.channels: {} given for {CH} channel(s)",
+                "interface.channels: {} given for {CH} channel(s)",
                 self.channels.len()
             );
         }
@@ -686,7 +656,7 @@ impl SubstructureSection {
             ("stiffness", &self.stiffness, &mut p.stiffness),
         ] {
             if from.len() != n || from.iter().any(|r| r.len() != n) {
-                bail!("substructure.{name} must be {n} x {n} (one row per DOF)");
+                bail!("numerical.structure: {name} must be {n} x {n} (one row per DOF)");
             }
             for (row, values) in to.iter_mut().zip(from) {
                 row[..n].copy_from_slice(values);
@@ -694,7 +664,7 @@ impl SubstructureSection {
         }
         p.velocity_cutoff_hz = self.velocity_cutoff_hz;
         for (c, ch) in self.channels.iter().enumerate() {
-            let what = format!("substructure.channels[{c}]");
+            let what = format!("interface.channels[{c}]");
             p.interface[c] = InterfaceParams {
                 dof: self.dof(&ch.dof, &what)? as u32,
                 stiffness: ch.interface_stiffness_n_per_m,
@@ -712,29 +682,31 @@ impl SubstructureSection {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use crate::setup::{SetUp, DEFAULT_SETUP};
+    use crate::config::Validated;
+    use std::path::Path;
+
+    fn run(text: &str) -> anyhow::Result<Validated> {
+        SetUp::from_toml(text, Path::new("."))?.run()?.validate()
+    }
 
     #[test]
-    fn default_config_is_valid() {
-        let c = Config::from_toml(DEFAULT_TYRE_CONFIG, Path::new(".")).unwrap();
-        assert!(matches!(c.validate().unwrap(), Validated::Tyre(_)));
+    fn default_set_up_is_valid() {
+        assert!(matches!(run(DEFAULT_SETUP).unwrap(), Validated::Tyre(_)));
     }
 
     #[test]
     fn typos_and_bad_values_are_rejected() {
-        let typo = DEFAULT_TYRE_CONFIG.replace("stiffness_n_per_m", "stifness_n_per_m");
-        assert!(Config::from_toml(&typo, Path::new(".")).is_err());
+        let typo = DEFAULT_SETUP.replace("stiffness_n_per_m = 2.5e5", "stifness_n_per_m = 2.5e5");
+        assert_ne!(typo, DEFAULT_SETUP);
+        assert!(SetUp::from_toml(&typo, Path::new(".")).is_err());
         let negative =
-            DEFAULT_TYRE_CONFIG.replace("damping_n_s_per_m = 500.0", "damping_n_s_per_m = -1.0");
-        assert_ne!(negative, DEFAULT_TYRE_CONFIG);
-        let c = Config::from_toml(&negative, Path::new(".")).unwrap();
-        let err = c.validate().unwrap_err().to_string();
+            DEFAULT_SETUP.replace("damping_n_s_per_m = 500.0", "damping_n_s_per_m = -1.0");
+        assert_ne!(negative, DEFAULT_SETUP);
+        let err = run(&negative).unwrap_err().to_string();
         assert!(err.contains("TyreDamping"), "{err}");
-        let fast = DEFAULT_TYRE_CONFIG.replace("end_hz = 30.0", "end_hz = 3000.0");
-        assert_ne!(fast, DEFAULT_TYRE_CONFIG);
-        assert!(Config::from_toml(&fast, Path::new("."))
-            .unwrap()
-            .validate()
-            .is_err());
+        let fast = DEFAULT_SETUP.replace("max_hz = 40.0", "max_hz = 3000.0");
+        assert_ne!(fast, DEFAULT_SETUP);
+        assert!(run(&fast).is_err());
     }
 }

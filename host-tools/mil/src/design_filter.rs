@@ -430,18 +430,19 @@ fn pareto_plot(
     Ok(())
 }
 
-/// Runs `mil design-filter`.
+/// Runs `mil design-filter` on a MiL set-up (designed for it without its own filter).
 ///
 /// # Errors
 /// Invalid set-up, a failed design, a design that may not be exported (unstable loop), or
 /// unwritable outputs.
 pub fn run_design_filter(
-    setup_path: &Path,
+    setup: &crate::setup::SetUp,
     request: &DesignRequest,
     progress: impl FnMut(usize, usize),
 ) -> Result<DesignOutput> {
-    let setup = Setup::read(setup_path)
-        .with_context(|| format!("loading set-up {}", setup_path.display()))?;
+    let mut setup = setup.clone();
+    setup.controller.filter = None;
+    let setup = setup.analysis()?;
     let spec = setup
         .options
         .responses

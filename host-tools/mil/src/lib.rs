@@ -26,6 +26,7 @@ pub mod param;
 pub mod plot;
 pub mod run;
 pub mod signals;
+pub mod setup;
 pub mod sim;
 pub mod xcp;
 

@@ -3,7 +3,7 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use mil::config::{Config, DEFAULT_TYRE_CONFIG};
+use mil::setup::SetUp;
 use mil::xcp::BoardArgs;
 use std::path::{Path, PathBuf};
 
@@ -45,11 +45,14 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Run the board's controller step in closed loop with the simulated rig, the emulated
-    /// system (the real vehicle) alongside, and report how close they are. Without CONFIG
-    /// the built-in tyre example runs.
+    /// system (the real vehicle) alongside, and report how close they are, and how close to
+    /// the set-up's analysis. Without SETUP the built-in tyre example runs.
     Sim {
-        /// Run configuration (TOML): `mil run`'s plus [rig], [sensors], [links], [compare].
-        config: Option<PathBuf>,
+        /// MiL set-up (TOML); examples in host-tools/mil/examples/.
+        setup: Option<PathBuf>,
+        /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
+        #[arg(long)]
+        filter: Option<PathBuf>,
         /// Output folder (CSV and SVG plots).
         #[arg(long, default_value = "out/sim")]
         out: PathBuf,
@@ -58,10 +61,13 @@ enum Command {
         json: bool,
     },
     /// Run the real-time controller step over a road input, open-loop on a rigid rig (the
-    /// hubs or body held still). Without CONFIG the built-in tyre example runs.
+    /// hubs or body held still). Without SETUP the built-in tyre example runs.
     Run {
-        /// Run configuration (TOML); see host-tools/mil/examples/.
-        config: Option<PathBuf>,
+        /// MiL set-up (TOML); examples in host-tools/mil/examples/.
+        setup: Option<PathBuf>,
+        /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
+        #[arg(long)]
+        filter: Option<PathBuf>,
         /// Output folder for run.csv and run.svg.
         #[arg(long, default_value = "out")]
         out: PathBuf,
@@ -71,10 +77,13 @@ enum Command {
     },
     /// Frequency-domain analysis of a MiL set-up: MiL vs emulated responses, open-loop
     /// margins, resonances, band errors and noise sensitivity. Examples:
-    /// host-tools/mil/examples/analyze/.
+    /// host-tools/mil/examples/.
     Analyze {
-        /// Set-up file (TOML).
+        /// MiL set-up (TOML).
         setup: PathBuf,
+        /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
+        #[arg(long)]
+        filter: Option<PathBuf>,
         /// Output folder for the plots (SVG) and traces (CSV).
         #[arg(long, default_value = "out/analyze")]
         out: PathBuf,
@@ -86,7 +95,7 @@ enum Command {
     /// the optimised accuracy/noise trade-off) and write the filter file the firmware and
     /// `[controller] filter` load, with plots next to it.
     DesignFilter {
-        /// Set-up file (TOML), as for `mil analyze`.
+        /// MiL set-up (TOML), as for `mil analyze` (its own filter is left out).
         setup: PathBuf,
         /// `ls`: least-squares fit; `optimal`: trade-off front, exports the most accurate
         /// design meeting the target.
@@ -297,13 +306,32 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// The set-up at `path` (none: the built-in tyre example), its command filter replaced by
+/// `filter` if given (`none`: no filter; relative to the working folder).
+fn set_up(path: Option<&Path>, filter: Option<&Path>) -> Result<SetUp> {
+    let mut s = match path {
+        Some(path) => SetUp::read(path)?,
+        None => SetUp::from_toml(mil::setup::DEFAULT_SETUP, Path::new("."))?,
+    };
+    if let Some(f) = filter {
+        s.controller.filter = if f == Path::new("none") {
+            None
+        } else {
+            Some(std::env::current_dir()?.join(f))
+        };
+    }
+    Ok(s)
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Run { config, out, json } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::from_toml(DEFAULT_TYRE_CONFIG, Path::new("."))?,
-            };
+        Command::Run {
+            setup,
+            filter,
+            out,
+            json,
+        } => {
+            let config = set_up(setup.as_deref(), filter.as_deref())?.run()?;
             let bar = if json {
                 ProgressBar::hidden()
             } else {
@@ -362,6 +390,7 @@ fn run(cli: Cli) -> Result<()> {
                 )
             };
             bar.set_message("optimising over the weights");
+            let setup = SetUp::read(&setup)?;
             let result = mil::design_filter::run_design_filter(&setup, &request, |i, n| {
                 bar.set_length(n as u64);
                 bar.set_position(i as u64);
@@ -374,8 +403,13 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Analyze { setup, out, json } => {
-            let result = mil::analyze::run_analyze(&setup, &out)?;
+        Command::Analyze {
+            setup,
+            filter,
+            out,
+            json,
+        } => {
+            let result = mil::analyze::run_analyze(&set_up(Some(&setup), filter.as_deref())?, &out)?;
             if json {
                 outln!("{}", serde_json::to_string(&result.summary())?);
             } else {
@@ -421,22 +455,13 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Sim { config, out, json } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => {
-                    // The built-in example refers to the shipped analysis set-up; compare with
-                    // it where the sources are at hand, else run without that comparison.
-                    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sim");
-                    let mut c = Config::from_toml(mil::config::DEFAULT_SIM_CONFIG, &shipped)?;
-                    if let Some(a) = &c.compare.analysis {
-                        if !shipped.join(a).is_file() {
-                            c.compare.analysis = None;
-                        }
-                    }
-                    c
-                }
-            };
+        Command::Sim {
+            setup,
+            filter,
+            out,
+            json,
+        } => {
+            let config = set_up(setup.as_deref(), filter.as_deref())?.sim()?;
             let bar = if json {
                 ProgressBar::hidden()
             } else {

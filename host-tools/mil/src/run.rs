@@ -276,11 +276,15 @@ impl RunOutput {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::DEFAULT_TYRE_CONFIG;
+    use crate::setup::{SetUp, DEFAULT_SETUP};
 
     #[test]
     fn tyre_run_matches_the_spring_damper_law() {
-        let c = Config::from_toml(DEFAULT_TYRE_CONFIG, Path::new(".")).unwrap();
+        let pink = "road = { kind = \"pink\", rms_m = 0.0005, max_hz = 40.0, seed = 1 }";
+        assert!(DEFAULT_SETUP.contains(pink));
+        let sweep = "road = { kind = \"sweep\", amplitude_m = 0.004, start_hz = 0.5, end_hz = 30.0 }";
+        let text = DEFAULT_SETUP.replace(pink, sweep);
+        let c = SetUp::from_toml(&text, Path::new(".")).unwrap().run().unwrap();
         let out = run(&c, |_| {}).unwrap();
         assert_eq!(out.summary.samples, 40_000);
         assert!(out.summary.fault_at_s.is_none());

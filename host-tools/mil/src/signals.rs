@@ -6,7 +6,7 @@ use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 use std::path::Path;
 
-/// A road input description, as written in the `[input]` table of a run configuration.
+/// A road input, as written in a set-up's `[excitation] road`.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum RoadInput {
@@ -56,7 +56,7 @@ impl RoadInput {
                 end_hz,
             } => {
                 if !(amplitude_m.is_finite() && *amplitude_m >= 0.0 && *amplitude_m < 1.0) {
-                    bail!("input.amplitude_m must be in [0, 1) m, got {amplitude_m}");
+                    bail!("excitation.road.amplitude_m must be in [0, 1) m, got {amplitude_m}");
                 }
                 if !(*start_hz > 0.0 && end_hz > start_hz && *end_hz < nyquist) {
                     bail!("input sweep needs 0 < start_hz < end_hz < {nyquist} Hz (Nyquist)");
@@ -64,10 +64,10 @@ impl RoadInput {
             }
             RoadInput::Pink { rms_m, max_hz, .. } => {
                 if !(rms_m.is_finite() && *rms_m >= 0.0 && *rms_m < 1.0) {
-                    bail!("input.rms_m must be in [0, 1) m, got {rms_m}");
+                    bail!("excitation.road.rms_m must be in [0, 1) m, got {rms_m}");
                 }
                 if !(*max_hz > 0.0 && *max_hz < nyquist) {
-                    bail!("input.max_hz must be in (0, {nyquist}) Hz");
+                    bail!("excitation.road.max_hz must be in (0, {nyquist}) Hz");
                 }
             }
             RoadInput::Bump {
@@ -76,7 +76,7 @@ impl RoadInput {
                 at_s,
             } => {
                 if !(height_m.is_finite() && height_m.abs() < 1.0) {
-                    bail!("input.height_m must be finite and below 1 m");
+                    bail!("excitation.road.height_m must be finite and below 1 m");
                 }
                 if !(*duration_s > 0.0 && at_s.is_finite() && *at_s >= 0.0) {
                     bail!("input bump needs duration_s > 0 and at_s >= 0");
@@ -84,7 +84,7 @@ impl RoadInput {
             }
             RoadInput::Csv { path } => {
                 if path.is_empty() {
-                    bail!("input.path is empty");
+                    bail!("excitation.road.path is empty");
                 }
             }
         }
@@ -269,8 +269,8 @@ pub fn read_profile(path: &Path, n: usize, dt: f64, channels: usize) -> Result<V
 /// ([`model_core::aero::AERO_MAX_SPEED`]).
 pub const MAX_SPEED_M_PER_S: f64 = model_core::aero::AERO_MAX_SPEED as f64;
 
-/// A vehicle speed over the run (the aero model's `v`), as written in the `[speed]` table of
-/// a run configuration; `[aero] speed_m_per_s` is the shorthand for a constant speed. Every
+/// A vehicle speed over the run (the aero model's `v`), as written in `speed` of
+/// a set-up's `[excitation]`; `excitation.speed_m_per_s` is the shorthand for a constant speed. Every
 /// speed must be finite and in `[0, MAX_SPEED_M_PER_S]` m/s. The board reads the speed at
 /// each control sample; the emulated aero model follows the same samples, ramped linearly
 /// between them.
@@ -340,13 +340,13 @@ impl SpeedInput {
     pub fn profile(&self, base: &Path, end_s: f64) -> Result<SpeedProfile> {
         let speed = |name: &str, v: f64| -> Result<f64> {
             if !(v.is_finite() && (0.0..=MAX_SPEED_M_PER_S).contains(&v)) {
-                bail!("speed.{name} must be in [0, {MAX_SPEED_M_PER_S}] m/s, got {v}");
+                bail!("excitation.speed.{name} must be in [0, {MAX_SPEED_M_PER_S}] m/s, got {v}");
             }
             Ok(v)
         };
         let time = |name: &str, v: f64| -> Result<f64> {
             if !(v.is_finite() && v >= 0.0) {
-                bail!("speed.{name} must be >= 0 s, got {v}");
+                bail!("excitation.speed.{name} must be >= 0 s, got {v}");
             }
             Ok(v)
         };
@@ -361,7 +361,7 @@ impl SpeedInput {
                 duration_s,
             } => {
                 if !(duration_s.is_finite() && *duration_s > 0.0) {
-                    bail!("speed.duration_s must be > 0 s (a step is kind = \"step\"), got {duration_s}");
+                    bail!("excitation.speed.duration_s must be > 0 s (a step is kind = \"step\"), got {duration_s}");
                 }
                 SpeedProfile::Ramp(
                     speed("from_m_per_s", *from_m_per_s)?,
@@ -382,7 +382,7 @@ impl SpeedInput {
             ),
             SpeedInput::Csv { path, column } => {
                 if path.is_empty() {
-                    bail!("speed.path is empty");
+                    bail!("excitation.speed.path is empty");
                 }
                 let (t, v) = read_speed_profile(&base.join(path), column.as_deref(), end_s)?;
                 SpeedProfile::Table(t, v)
@@ -440,7 +440,7 @@ pub fn read_speed_profile(
         Some(c) => table
             .index(c)
             .filter(|&i| i > 0)
-            .with_context(|| format!("{name}: no column {c:?} (speed.column)"))?,
+            .with_context(|| format!("{name}: no column {c:?} (excitation.speed.column)"))?,
         None if table.names.len() == 2 => 1,
         None => bail!(
             "{name}: {} columns after `time`: name the speed column with speed.column",

@@ -9,13 +9,12 @@
 //! interface force and position (J1 delay at the cross-correlation peak, J2 normalised RMS
 //! error, J3 normalised peak error, see [`mil_rig::metrics`]), and the response estimated
 //! from the run (H1, Hann-windowed Welch) against the emulated one and, with
-//! `[compare] analysis`, against `mil analyze`'s prediction.
+//! and against the set-up's own analysis (`mil analyze`'s prediction).
 
 use crate::config::{Config, ModelKind, PreparedSubstructure, Validated};
 use crate::run::to_array;
 use anyhow::{anyhow, bail, Context, Result};
 use mil_analysis::analyze::Signal;
-use mil_analysis::examples::{AeroExample, TyreExample};
 use mil_analysis::response::CommandFilter;
 use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, ServoHydraulicActuator};
@@ -154,17 +153,16 @@ pub struct SimOutput {
     pub curves: Option<ResponseCurves>,
 }
 
-/// Runs the configuration on the simulated rig; `progress` gets the fraction done.
-///
-/// # Errors
-/// An invalid configuration, rig or analysis set-up.
-pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput> {
+/// Everything [`simulate`] validates before it runs (what `mil check` runs on a set-up): the
+/// board's parameters and the rig ([`Config::validate_sim`]), the integration step, the
+/// comparison band and the analysis' prediction.
+pub(crate) fn prepare(config: &Config) -> Result<(Validated, Option<Prediction>)> {
     let validated = config.validate_sim()?;
     let fs = config.run.sample_rate_hz;
     let step = config.rig.internal_step_s;
     if !(step.is_finite() && step > 0.0 && step <= 1.0 / fs) {
         bail!(
-            "rig.internal_step_s must be in (0, {}] s (the control period), got {step}",
+            "simulation.internal_step_s must be in (0, {}] s (the control period), got {step}",
             1.0 / fs
         );
     }
@@ -175,7 +173,17 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             fs / 2.0
         );
     }
-    let prediction = prediction(config)?;
+    Ok((validated, prediction(config)?))
+}
+
+/// Runs the configuration on the simulated rig; `progress` gets the fraction done.
+///
+/// # Errors
+/// An invalid configuration, rig or analysis set-up.
+pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput> {
+    let (validated, prediction) = prepare(config)?;
+    let fs = config.run.sample_rate_hz;
+    let step = config.rig.internal_step_s;
     let n = config.samples();
     let channels = config.channels();
     let rows = config.input.generate(n, fs, channels, &config.base)?;
@@ -193,15 +201,15 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             .unwrap_or(ServoHydraulicActuator::REFERENCE),
         config.rig.actuator_effects,
     )
-    .map_err(|e| anyhow!("rig.actuator: {e}"))?;
+    .map_err(|e| anyhow!("actuator.reference: {e}"))?;
     let started = std::time::Instant::now();
     let (road_names, histories, links, filter_sections) = match validated {
         Validated::Tyre(prepared) => {
             let tyre = config
                 .tyre
                 .as_ref()
-                .context("model.kind = \"tyre\" needs a [tyre] table")?;
-            let car = TyreExample::default();
+                .context("the tyre run needs [numerical.tyre]")?;
+            let car = config.quarter_car();
             let suspension = config
                 .rig
                 .suspension
@@ -219,7 +227,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             };
             tyre_element
                 .validate()
-                .map_err(|e| anyhow::anyhow!("rig.tyre_effects: {e}"))?;
+                .map_err(|e| anyhow::anyhow!("physical.quarter_car: {e}"))?;
             let mut parts = (0..channels)
                 .map(|c| {
                     mil_rig::rigs::quarter_car_part(
@@ -256,7 +264,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             (names, h, links, sections)
         }
         Validated::Aero(prepared, profile) => {
-            let car = AeroExample::default();
+            let car = config.half_car();
             let params = prepared.params().model;
             let front = config
                 .rig
@@ -414,7 +422,7 @@ fn substructure<const CH: usize>(
         model_roads,
         config.rig.internal_step_s,
     )
-    .map_err(|e| anyhow!("rig.structure: {}", e.0))?];
+    .map_err(|e| anyhow!("physical.structure: {}", e.0))?];
     let sections = prepared.params().filter[0].active().len();
     let mut controller = Controller::new(prepared);
     let (h, links) = harness::run(
@@ -459,83 +467,58 @@ fn columns(rows: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// `mil analyze`'s prediction of the run's response (`[compare] analysis`): the set-up
-/// with the run's command filter, the output signal and the inputs the run's road drives.
-struct Prediction {
-    /// The set-up file.
-    path: PathBuf,
-    /// The set-up, its command filter replaced by the run's.
+/// The analysis' prediction of the run's response: the set-up's analysis with the run's
+/// command filter, the output signal and the inputs the run's road drives.
+pub(crate) struct Prediction {
+    /// The set-up's name.
+    name: String,
+    /// The analysis, its command filter the run's.
     setup: Setup,
     /// The predicted output.
     output: Signal,
-    /// The set-up's inputs the run's road drives (their responses are summed).
+    /// The analysis inputs the run's road drives (their responses are summed).
     inputs: Vec<usize>,
 }
 
-/// Reads and checks `[compare] analysis` and `analysis_inputs` (before the run, so that a
-/// bad set-up is refused at once): see [`response`] for the signals per model.
+/// The prediction of the run's response from the set-up's analysis, checked before the run
+/// so that a bad set-up is refused at once: see [`response`] for the signals per model.
 fn prediction(config: &Config) -> Result<Option<Prediction>> {
-    let cmp = &config.compare;
-    let Some(file) = &cmp.analysis else {
-        if cmp.analysis_inputs.is_some() {
-            bail!("compare.analysis_inputs needs compare.analysis (the set-up they belong to)");
-        }
+    let Some(setup) = &config.analysis else {
         return Ok(None);
     };
     let fs = config.run.sample_rate_hz;
-    let path: PathBuf = config.base.join(file);
-    let mut setup =
-        Setup::read(&path).with_context(|| format!("compare.analysis {}", path.display()))?;
-    // The prediction is for the controller that runs: the run's command filter replaces
-    // the set-up's.
+    let mut setup = (**setup).clone();
+    // The prediction is for the controller that runs: the run's command filter.
     let cascade = config.command_filter()?;
     setup.system.filter = (cascade.sections > 0).then_some(CommandFilter::Discrete {
         cascade,
         sample_period_s: 1.0 / fs,
     });
-    if (setup.sample_rate_hz - fs).abs() > 1e-9 * fs {
-        bail!(
-            "compare.analysis {} is for {} Hz, the run is at {fs} Hz",
-            path.display(),
-            setup.sample_rate_hz
-        );
-    }
-    let (signal, default_input) = match config.model.kind {
-        ModelKind::Tyre => ("interface_force", Some("road")),
-        ModelKind::Aero => ("physical:z_b", Some("road_heave")),
-        ModelKind::Substructure => ("interface_force", None),
+    let signal = match config.model.kind {
+        ModelKind::Tyre | ModelKind::Substructure => "interface_force",
+        ModelKind::Aero => "physical:z_b",
     };
-    let output = Signal::parse(signal, &setup.system)
-        .with_context(|| format!("compare.analysis {}", path.display()))?;
-    let names: Vec<String> = match (&cmp.analysis_inputs, default_input) {
-        (Some(names), _) if !names.is_empty() => names.clone(),
-        (Some(_), _) => bail!("compare.analysis_inputs is empty"),
-        (None, Some(name)) => vec![name.to_string()],
-        (None, None) => bail!(
-            "compare.analysis_inputs: name the inputs of {} that the run's road drives \
-             (e.g. [\"z_n\"])",
-            path.display()
-        ),
-    };
+    let output = Signal::parse(signal, &setup.system).context("the analysis' output")?;
     let available: Vec<&str> = setup
         .system
         .inputs
         .iter()
         .map(|i| i.name.as_str())
         .collect();
-    let inputs = names
+    if config.analysis_inputs.is_empty() {
+        bail!("no input of the analysis follows the run's road_0: map a structure input to it");
+    }
+    let inputs = config
+        .analysis_inputs
         .iter()
         .map(|name| {
             available.iter().position(|i| i == name).with_context(|| {
-                format!(
-                    "compare.analysis_inputs: {} has no input {name:?} (inputs: {available:?})",
-                    path.display()
-                )
+                format!("the analysis has no input {name:?} (inputs: {available:?})")
             })
         })
         .collect::<Result<Vec<usize>>>()?;
     Ok(Some(Prediction {
-        path,
+        name: setup.name.clone(),
         setup,
         output,
         inputs,
@@ -546,7 +529,7 @@ fn prediction(config: &Config) -> Result<Option<Prediction>> {
 /// under it (analysis: `interface_force` per `road`); aero, the body's heave per road heave
 /// (analysis: `physical:z_b` per `road_heave`), when both posts carry the same road;
 /// substructure, channel 0's interface force per channel 0's road (analysis:
-/// `interface_force` per the sum of `[compare] analysis_inputs`). The analysis comparison of
+/// `interface_force` per the sum of the inputs that follow road 0). The analysis comparison of
 /// an aero run is left out, with the reason, unless the speed is the reference speed
 /// throughout (the set-up's `K_i` holds there only).
 fn response(
@@ -564,7 +547,7 @@ fn response(
     // Aero: body heave from the axle positions, z_b = (l_r y_f + l_f y_r) / (l_f + l_r),
     // per road heave (the same road under both posts).
     let heave = |y: &[Vec<f64>]| -> Vec<f64> {
-        let car = AeroExample::default();
+        let car = config.half_car();
         let (lf, lr) = (car.front_axle_m, car.rear_axle_m);
         match (y.first(), y.get(1)) {
             (Some(f), Some(r)) => f
@@ -686,7 +669,7 @@ fn response(
         }
         summary.mil_vs_analysis = deviation(&curves.mil, &predicted.0);
         summary.emulated_vs_analysis = deviation(&curves.emulated, &predicted.1);
-        summary.analysis = Some(p.path.display().to_string());
+        summary.analysis = Some(p.name.clone());
         curves.predicted = Some(predicted);
     }
     Ok(Some((summary, curves)))
