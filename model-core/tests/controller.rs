@@ -477,7 +477,7 @@ fn after_swap(
 }
 
 /// Issue 19, point 1: the project's own least-squares command filter for the tyre example
-/// (`host-tools/mil/examples/sim/tyre-filter.json`, 2 kHz) uploaded while Running at the
+/// (`host-tools/mil/examples/tyre-filter.json`, 2 kHz) uploaded while Running at the
 /// static wheel load (1.7 kN). Before: the new coefficients ran on the old filter's state and
 /// the demand moved by kilonewtons (in QEMU 1667.7 → 7667.7 N, held back only by the rate
 /// limit). Now the demand moves by at most 1/200 of the change in steady demand a step

@@ -121,14 +121,14 @@ impl HubRig {
         // Hub acceleration with the load-cell inertia eliminated.
         let hub_acceleration = row(&[
             (LOAD_PRESSURE, area / mass),
-            (HUB_VELOCITY, -act.seal_damping_ns_per_m / mass),
+            (HUB_VELOCITY, -act.seal_damping_n_s_per_m / mass),
         ]);
         let hub_acceleration = add(hub_acceleration, suspension, 1.0 / mass);
         // Load-cell force F = A P_L − m_a ẍ_u − c_a ẋ_u.
         let force = add(
             row(&[
                 (LOAD_PRESSURE, area),
-                (HUB_VELOCITY, -act.seal_damping_ns_per_m),
+                (HUB_VELOCITY, -act.seal_damping_n_s_per_m),
             ]),
             hub_acceleration,
             -act.moving_mass_kg,

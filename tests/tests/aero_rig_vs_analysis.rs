@@ -1,8 +1,9 @@
 //! The simulated aero rig in closed loop with the board's controller step agrees with the
 //! linear analysis: the body's heave per road heave and pitch per road pitch, estimated from
 //! broadband runs (H1 over whole periods of a periodic excitation), against `mil analyze`'s
-//! prediction for the same set-up (`host-tools/mil/examples/analyze/aero.toml`,
-//! configuration 4), MiL and emulated, over 1–30 Hz.
+//! prediction for the same set-up (the MiL set-up `host-tools/mil/examples/aero.toml`,
+//! configuration 4, its analysis built by `mil::setup::SetUp::analysis`), MiL and emulated,
+//! over 1–30 Hz.
 //!
 //! The rig is the nonlinear one (the reference actuators at the axle points holding the
 //! static down force of [`AeroParams::PAPER`] at its 50 m/s reference speed, where its
@@ -12,9 +13,9 @@
 //! `road_pitch` inputs. The body DOFs are `[z_b; θ_b] = L⁻¹ y` from the recorded attachment
 //! positions `y` (the axle points).
 
+use mil::setup::SetUp;
 use mil_analysis::analyze::Signal;
 use mil_analysis::examples::AeroExample;
-use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, ServoHydraulicActuator};
 use mil_identify::{band_limited_noise, h1_estimate, FrfEstimate, Record, WelchOptions, Window};
 use mil_rig::harness::{run, Histories, Instrumentation};
@@ -104,11 +105,16 @@ fn estimate(input: &[f64], output: &[f64]) -> FrfEstimate {
 /// RK4, the `f32` model and the estimate against the analysis' exact evaluation.
 #[test]
 fn aero_rig_frf_matches_the_analysis() {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../host-tools/mil/examples/analyze/aero.toml");
-    let setup = Setup::read(&path).unwrap();
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../host-tools/mil/examples/aero.toml");
+    let set_up = SetUp::read(&path).unwrap();
+    let setup = set_up.analysis().unwrap();
     assert_eq!(setup.sample_rate_hz, FS);
     assert_eq!(setup.system.configuration(), 4);
+    assert!(
+        setup.system.filter.is_none(),
+        "the rig runs no command filter"
+    );
     let system = &setup.system;
     let input = |name: &str| system.inputs.iter().position(|i| i.name == name).unwrap();
     let (heave_input, pitch_input) = (input("road_heave"), input("road_pitch"));
@@ -123,6 +129,19 @@ fn aero_rig_frf_matches_the_analysis() {
     assert_eq!(
         params.stiffness.map(|r| r.map(f64::from)),
         car.aero_stiffness
+    );
+    let aero = set_up.numerical.aero.as_ref().unwrap();
+    assert_eq!(
+        (
+            aero.stiffness,
+            aero.nominal_force,
+            aero.reference_speed_m_per_s
+        ),
+        (
+            params.stiffness,
+            params.nominal_force,
+            params.reference_speed
+        )
     );
     assert!((f64::from(params.front_axle) - car.front_axle_m).abs() < 1e-6);
     assert!((f64::from(params.rear_axle) - car.rear_axle_m).abs() < 1e-6);

@@ -4,10 +4,11 @@
 //! force-controlled reference hub actuator, 2 kHz controller, loop delay 1.5 samples).
 //!
 //! # The two sides
-//! - **Analysis**: the system the CLI analyses, read from
-//!   `host-tools/mil/examples/analyze/tyre.toml` with [`Setup::read`], and its response
-//!   "tyre force / road" (the load-cell force on the hub per road displacement, N/m) of the
-//!   MiL loop, [`MilSystem::point`] picked as the CLI picks it.
+//! - **Analysis**: the system the CLI analyses, the MiL set-up
+//!   `host-tools/mil/examples/tyre.toml` read with [`SetUp::read`] and built with
+//!   [`SetUp::analysis`], and its response "tyre force / road" (the load-cell force on the
+//!   hub per road displacement, N/m) of the MiL loop, [`MilSystem::point`] picked as the CLI
+//!   picks it.
 //! - **Simulation**: `model_core::Controller<TyreModel<1>, 1>` (the board's controller step,
 //!   f32) stepped at 2 kHz, fed the road displacement and the measured hub position, producing
 //!   the force demand; the physical side is [`HubRig`]: the reference actuator's documented
@@ -41,12 +42,12 @@
 //! `Interface::velocity = VelocityEstimate::Board { sample_period_s: T, cutoff_hz }`
 //! (`B_i = k_t + c_t D(e^{sT})` from model-core's own `f32` coefficients), by default with
 //! the model-core tyre's cut-off ([`TyreParams::PAPER`], 500 Hz), here set through the
-//! set-up file's `[model.tyre] velocity_cutoff_hz` and handed to the simulated board's tyre
-//! from the analysed system, so both sides run the same estimator. Measured against the
+//! set-up file's `[numerical.tyre] velocity_cutoff_hz` and handed to the simulated board's
+//! tyre from the analysed system, so both sides run the same estimator. Measured against the
 //! analysis with the continuous `c_t s` ([`VelocityEstimate::Continuous`]), the estimator's
 //! lag moves the MiL response by up to 0.36 dB and 1.4° near the 17 Hz resonance with the
-//! 500 Hz cut-off (0.78 dB and 2.9° at 200 Hz, the `mil run` example's; 0.23 dB and 0.9°
-//! for a plain backward difference), of the order of the effect of half a sample of delay.
+//! 500 Hz cut-off (0.78 dB and 2.9° with a 200 Hz cut-off; 0.23 dB and 0.9° for a plain
+//! backward difference), of the order of the effect of half a sample of delay.
 //!
 //! # Tolerance
 //! [`TOLERANCE_DB`] = 0.1 dB in magnitude and [`TOLERANCE_DEG`] = 0.5° in phase, over 1–30 Hz
@@ -65,9 +66,10 @@
 //! tolerance and 2 % of the damping ratio (measured: 0.1 %; the estimate's half-power points
 //! are interpolated between bins).
 
+use mil::setup::SetUp;
 use mil_analysis::analyze::ResponseSpec;
 use mil_analysis::metrics::resonances;
-use mil_analysis::setup::{Setup, SetupFile};
+use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, MilSystem, ResponseSource, ServoHydraulicActuator, VelocityEstimate};
 use mil_identify::{band_limited_noise, h1_estimate, FrfEstimate, Record, WelchOptions, Window};
 use mil_integration_tests::linear_rig::{HubRig, QuarterCar};
@@ -79,8 +81,8 @@ use num_complex::Complex64;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
-/// The set-up the CLI analyses, relative to the workspace root.
-const SETUP: &str = "host-tools/mil/examples/analyze/tyre.toml";
+/// The MiL set-up the CLI analyses, relative to the workspace root.
+const SETUP: &str = "host-tools/mil/examples/tyre.toml";
 /// The response of that set-up that is compared.
 const RESPONSE: &str = "tyre force / road";
 /// Samples per period of the road excitation (and per Welch segment): 8.2 s at 2 kHz,
@@ -117,18 +119,19 @@ struct Case {
 
 /// The analysed set-up and the matching simulation parts. `velocity_cutoff_hz`: the tyre
 /// velocity estimator's low-pass (Hz, 0: plain backward difference) given to the set-up as
-/// `[model.tyre] velocity_cutoff_hz`, `None` for the set-up's default; the simulated board's
-/// tyre takes it from the analysed system.
+/// `[numerical.tyre] velocity_cutoff_hz`, `None` for the set-up's own (500 Hz); the simulated
+/// board's tyre takes it from the analysed system.
 fn case(velocity_cutoff_hz: Option<f64>) -> Case {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("..")
         .join(SETUP);
-    let mut file: SetupFile =
-        toml::from_str(&std::fs::read_to_string(&path).expect("tyre set-up")).expect("TOML");
+    let mut set_up = SetUp::read(&path).expect("tyre set-up");
     if let Some(cutoff) = velocity_cutoff_hz {
-        file.model.tyre.velocity_cutoff_hz = cutoff;
+        let tyre = set_up.numerical.tyre.as_mut().expect("numerical tyre");
+        tyre.velocity_cutoff_hz = cutoff as f32;
+        assert_eq!(f64::from(tyre.velocity_cutoff_hz), cutoff, "exact in f32");
     }
-    let setup = Setup::from_file(&file, path.parent().expect("folder")).expect("tyre set-up");
+    let setup = set_up.analysis().expect("tyre set-up");
     let sample_rate_hz = setup.sample_rate_hz;
     let system = &setup.system;
     assert_eq!(system.configuration(), 4);
@@ -423,8 +426,8 @@ fn compare(case: &Case, est: &FrfEstimate, velocity: Velocity) -> Agreement {
 /// The simulated MiL loop with the board's controller reproduces the analysis' tyre-force
 /// response within [`TOLERANCE_DB`] and [`TOLERANCE_DEG`] over 1–30 Hz and around the
 /// 17 Hz resonance, and its resonance (frequency, peak, damping) is the analysis' one, for
-/// the set-up's default velocity low-pass (the model-core tyre's, 500 Hz), the `mil run`
-/// example's (200 Hz) and a plain backward difference (0).
+/// the set-up's velocity low-pass (the model-core tyre's, 500 Hz), a lower one (200 Hz) and
+/// a plain backward difference (0).
 #[test]
 fn simulated_loop_with_the_board_controller_matches_the_analysis() {
     for cutoff in [None, Some(200.0), Some(0.0)] {

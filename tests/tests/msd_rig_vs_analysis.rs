@@ -1,11 +1,12 @@
 //! A general mass-spring-damper specimen on the simulated rig in closed loop with the board's
 //! substructure model agrees with the linear analysis: the paper's 2-DOF example in
 //! configuration 4 (`B_i` numerical, force control) on the small force actuator and with the
-//! least-squares command filter of `host-tools/mil/examples/sim/msd.toml`, its interface
-//! force per road input estimated from broadband runs (H1 over whole periods of a periodic
-//! excitation) against `mil analyze`'s prediction for the same set-up
-//! (`host-tools/mil/examples/analyze/two-dof-small-actuator.toml` with that filter), MiL and
-//! emulated, over 1–30 Hz.
+//! least-squares command filter of the MiL set-up `host-tools/mil/examples/two-dof.toml`
+//! (`two-dof-filter.json`), its interface force per road input estimated from broadband runs
+//! (H1 over whole periods of a periodic excitation) against `mil analyze`'s prediction for
+//! the same set-up (its analysis built by `mil::setup::SetUp::analysis`, the physical mass
+//! on its post, `two-dof-physical-post.toml`, for the `z_p` input), MiL and emulated, over
+//! 1–30 Hz.
 //!
 //! The rig is the nonlinear one: the physical mass on its spring and damper (carrying its
 //! weight) under the nonlinear servo-hydraulic actuator, and the board's `f32` Tustin
@@ -14,6 +15,7 @@
 //! rig's bed), and the physical mass on a post driven by `z_p` alone (the model's road held
 //! at zero): the analysis' `z_n` and `z_p` inputs.
 
+use mil::setup::SetUp;
 use mil_analysis::analyze::Signal;
 use mil_analysis::examples::TwoDofExample;
 use mil_analysis::filter_file::FilterFile;
@@ -31,7 +33,7 @@ use model_core::{
     SubstructureParams,
 };
 use num_complex::Complex64;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 const FS: f64 = 2000.0;
 const PERIOD: usize = 16384;
@@ -183,13 +185,32 @@ fn worst(setup: &Setup, est: &FrfEstimate, lp: Loop, input: usize) -> (f64, f64)
 
 #[test]
 fn msd_rig_frf_matches_the_analysis() {
-    let mut setup = Setup::read(&examples().join("analyze/two-dof-small-actuator.toml")).unwrap();
+    let mut set_up = SetUp::read(&examples().join("two-dof.toml")).unwrap();
+    // The set-up's physical mass stands on the rig's bed; the analysis of the mass on its
+    // post (the paper's 2-DOF example, the same linearisation with the input z_p) predicts
+    // both runs.
+    assert_eq!(
+        set_up.physical.structure.as_deref(),
+        Some(Path::new("two-dof-physical.toml"))
+    );
+    set_up.physical.structure = Some("two-dof-physical-post.toml".into());
+    let setup = set_up.analysis().unwrap();
     assert_eq!(setup.sample_rate_hz, FS);
-    let (_, filter) = FilterFile::read(&examples().join("sim/msd-filter.json")).unwrap();
-    setup.system.filter = Some(CommandFilter::Discrete {
-        cascade: filter,
-        sample_period_s: 1.0 / FS,
-    });
+    // The set-up's command filter is the one the board runs here, in the analysis as the
+    // cascade at the controller's sample period.
+    assert_eq!(
+        set_up.controller.filter.as_deref(),
+        Some(Path::new("two-dof-filter.json"))
+    );
+    let (_, filter) = FilterFile::read(&examples().join("two-dof-filter.json")).unwrap();
+    let Some(CommandFilter::Discrete {
+        cascade,
+        sample_period_s,
+    }) = &setup.system.filter
+    else {
+        panic!("the analysis has no discrete command filter");
+    };
+    assert_eq!((*cascade, *sample_period_s), (filter, 1.0 / FS));
     let names: Vec<&str> = setup
         .system
         .inputs

@@ -1,13 +1,14 @@
 //! The simulated rig in closed loop with the board's controller step agrees with the linear
 //! analysis: the tyre force per road input estimated from a broadband run (H1 over whole
 //! periods of a periodic excitation) against `mil analyze`'s prediction for the same set-up
-//! (`host-tools/mil/examples/analyze/tyre.toml`), MiL and emulated, over 1–30 Hz. The rig
-//! is the nonlinear one, at the static wheel load, with a road small enough to stay in its
-//! linear range (0.5 mm RMS, no lift-off).
+//! (the MiL set-up `host-tools/mil/examples/tyre.toml`, its analysis built by
+//! `mil::setup::SetUp::analysis`), MiL and emulated, over 1–30 Hz. The rig is the nonlinear
+//! one, at the static wheel load, with a road small enough to stay in its linear range
+//! (0.5 mm RMS, no lift-off), and without a command filter, as the set-up has it.
 
+use mil::setup::SetUp;
 use mil_analysis::analyze::Signal;
 use mil_analysis::examples::TyreExample;
-use mil_analysis::setup::Setup;
 use mil_analysis::{Loop, ServoHydraulicActuator};
 use mil_identify::{band_limited_noise, h1_estimate, Record, WelchOptions, Window};
 use mil_rig::harness::{run, Instrumentation};
@@ -20,16 +21,35 @@ const FS: f64 = 2000.0;
 
 #[test]
 fn tyre_rig_frf_matches_the_analysis() {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../host-tools/mil/examples/analyze/tyre.toml");
-    let setup = Setup::read(&path).unwrap();
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../host-tools/mil/examples/tyre.toml");
+    let set_up = SetUp::read(&path).unwrap();
+    let setup = set_up.analysis().unwrap();
     assert_eq!(setup.sample_rate_hz, FS);
     let force = Signal::parse("interface_force", &setup.system).unwrap();
 
     let car = TyreExample::default();
     let tyre_params = TyreParams::PAPER;
-    // The rig is the analysed set-up: the same quarter car, tyre and actuator.
+    // The rig is the analysed set-up: the same quarter car, tyre and actuator, no command
+    // filter.
     assert_eq!(setup.reference_actuator, ServoHydraulicActuator::REFERENCE);
+    assert!(
+        setup.system.filter.is_none(),
+        "the rig runs no command filter"
+    );
+    let tyre = set_up.numerical.tyre.as_ref().unwrap();
+    assert_eq!(
+        (
+            tyre.stiffness_n_per_m,
+            tyre.damping_n_s_per_m,
+            tyre.velocity_cutoff_hz
+        ),
+        (
+            tyre_params.stiffness,
+            tyre_params.damping,
+            tyre_params.velocity_cutoff_hz
+        )
+    );
     assert_eq!(
         (
             f64::from(tyre_params.stiffness),

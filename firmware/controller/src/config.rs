@@ -3,7 +3,7 @@
 //! The model is the paper's tyre example on one hub actuator: `Controller<TyreModel<1>, 1>`
 //! with [`TyreParams::PAPER`] (k_t 250 N/mm, c_t 0.5 N s/mm, static load (150 + 20) kg ·
 //! 9.81 m/s², lift-off, 500 Hz velocity low-pass), no command filter, at 2 kHz, and the limits
-//! and safe state of `host-tools/mil/examples/sim/tyre.toml`. Everything here can be changed
+//! and safe state of `host-tools/mil/examples/tyre.toml`. Everything here can be changed
 //! at run time through Command frames (see [`crate::params`] for the parameter indices), except
 //! the sample period, which is fixed by the servo controller's measurement rate.
 

@@ -246,7 +246,7 @@
 //! Tyre: k_t 2.5e5 N/m, c_t 500 N s/m, static load 1667.7 N, lift-off, 500 Hz velocity
 //! low-pass (`TyreParams::PAPER`); no command filter; dt = 1/2000 s; demand limits −1000 N ..
 //! 12 000 N, rate 2e6 N/s; safe demand 1667.7 N, safe ramp 5e4 N/s (as
-//! `host-tools/mil/examples/sim/tyre.toml`); watchdog N = 10; status every K = 200 steps.
+//! `host-tools/mil/examples/tyre.toml`); watchdog N = 10; status every K = 200 steps.
 //! Commands: 1 Start (Idle → Running), 2 Stop, 3 ClearFault, 4 SetParam (index and value as
 //! in [`params`]), 5 SetWatchdog (seconds).
 //!

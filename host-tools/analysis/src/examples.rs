@@ -110,7 +110,7 @@ impl TyreExample {
         // Validated as the board validates it.
         if velocity.coefficients().is_err() {
             return Err(setup_error(format!(
-                "tyre velocity_cutoff_hz = {} Hz at a sample period of {sample_period_s} s: \
+                "numerical.tyre.velocity_cutoff_hz = {} Hz at a sample period of {sample_period_s} s: \
                  the board's tyre needs a cut-off of 0 (plain backward difference) to \
                  20000 Hz and a sample period of 5e-5 to 1e-2 s (100 Hz to 20 kHz)",
                 self.velocity_cutoff_hz

@@ -61,7 +61,7 @@ pub struct ServoHydraulicActuator {
     /// Moving mass between the piston and the load cell `m_a` (kg).
     pub moving_mass_kg: f64,
     /// Viscous seal friction `c_a` (N·s/m).
-    pub seal_damping_ns_per_m: f64,
+    pub seal_damping_n_s_per_m: f64,
     /// Proportional force gain `K_p` (valve opening per newton of force error, 1/N).
     pub proportional_gain_per_n: f64,
     /// Integral force gain `K_i` (valve opening per newton-second, 1/(N·s)).
@@ -97,7 +97,7 @@ impl ServoHydraulicActuator {
         valve_frequency_hz: 100.0,
         valve_damping_ratio: 0.7,
         moving_mass_kg: 6.0,
-        seal_damping_ns_per_m: 600.0,
+        seal_damping_n_s_per_m: 600.0,
         proportional_gain_per_n: 8.3e-6,
         integral_gain_per_n_s: 3.0e-4,
         velocity_feedforward: 1.0,
@@ -122,7 +122,7 @@ impl ServoHydraulicActuator {
         let non_negative = [
             ("flow_pressure_coefficient", self.flow_pressure_coefficient),
             ("moving_mass_kg", self.moving_mass_kg),
-            ("seal_damping_ns_per_m", self.seal_damping_ns_per_m),
+            ("seal_damping_n_s_per_m", self.seal_damping_n_s_per_m),
             ("integral_gain_per_n_s", self.integral_gain_per_n_s),
         ];
         for (name, v) in positive {
@@ -171,7 +171,7 @@ impl ServoHydraulicActuator {
             &mul(&vd, &cd),
         );
         let inertia_path = mul(
-            &[self.moving_mass_kg, self.seal_damping_ns_per_m, 0.0],
+            &[self.moving_mass_kg, self.seal_damping_n_s_per_m, 0.0],
             &mul(&mul(&hd, &vd), &cd),
         );
         let disturbance_num = scale(&add(&velocity_path, &inertia_path), -1.0);
@@ -238,7 +238,7 @@ mod tests {
             velocity_feedforward: 0.0,
             integral_gain_per_n_s: 0.0,
             flow_pressure_coefficient: 0.0,
-            seal_damping_ns_per_m: 0.0,
+            seal_damping_n_s_per_m: 0.0,
             moving_mass_kg: 0.0,
             ..ServoHydraulicActuator::REFERENCE
         };

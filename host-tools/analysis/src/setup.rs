@@ -1,6 +1,15 @@
-//! The set-up file (TOML): a MiL set-up described once, validated at load, turned into a
-//! [`MilSystem`] and [`AnalysisOptions`]. Relative file names inside (actuator tables, the
-//! command filter) are relative to the set-up file's folder.
+//! The analysis set-up (TOML form): a MiL set-up described once, validated at load, turned
+//! into a [`MilSystem`] and [`AnalysisOptions`]. Relative file names inside (actuator tables,
+//! the command filter, structure files) are relative to the given folder.
+//!
+//! This form is the analysis crate's internal input, not a file users write: `mil analyze`,
+//! `mil design-filter` and `mil sim` read the MiL set-up file (`mil::setup::SetUp` in
+//! `host-tools/mil/src/setup.rs`, one file for the analysis and the run), and
+//! `mil::setup::SetUp::analysis` builds this [`SetupFile`] from it (e.g. its
+//! `[numerical.tyre]` and `[physical.quarter_car]` become `[model] example = "tyre"` and
+//! `[model.tyre]`, its structure files and `[[interface.channels]]` a `custom` model, its
+//! `[sensors]` noise `[noise]`) and hands it to [`Setup::from_file`]. Its keys, for
+//! reference:
 //!
 //! ```toml
 //! name = "tyre"
@@ -43,9 +52,10 @@
 //! coefficients), with the cut-off `[model.tyre] velocity_cutoff_hz` (Hz; default 500, the
 //! model-core tyre's `TyreParams::PAPER`; 0 = plain backward difference; 0 to 20000 Hz, and
 //! `sample_rate_hz` 100 Hz to 20 kHz, as the board accepts). Give it the value the board
-//! runs, e.g. the `mil run` configuration's `[tyre] velocity_cutoff_hz` (200 Hz in
-//! `host-tools/mil/examples/tyre.toml`). `velocity_estimate = "continuous"` analyses the
-//! ideal `c_t s` instead, and so does the tyre under position control (configuration 3: the
+//! runs: the MiL set-up has one key for both, `[numerical.tyre] velocity_cutoff_hz` (500 Hz
+//! in `host-tools/mil/examples/tyre.toml`), which `mil::setup::SetUp::analysis` passes here
+//! (and its `velocity_estimate`). `velocity_estimate = "continuous"` analyses the ideal
+//! `c_t s` instead, and so does the tyre under position control (configuration 3: the
 //! numerical tyre then turns the measured force into a position through `B_i⁻¹`, integrated,
 //! without a velocity estimate). A `custom` model is continuous (`C_i s`) unless
 //! `[interface]` gives `velocity_cutoff_hz` (Hz), which is allowed for a numerical `B_i`
@@ -354,7 +364,7 @@ fn part(p: &PartSection, what: &str, folder: &Path) -> Result<PartWithInputs> {
     }
     let path = folder.join(file);
     let model = mil_structure::Model::read(&path)
-        .map_err(|e| setup_error(format!("[{what}] structure: {e}")))?;
+        .map_err(|e| setup_error(format!("{what}.structure: {e}")))?;
     let l = model.linearised();
     let part = MechanicalPart::new(model.dofs.clone(), l.mass, l.damping, l.stiffness)?;
     let inputs = model
@@ -378,7 +388,7 @@ fn location(text: &str) -> Result<ImpedanceLocation> {
         "physical" => Ok(ImpedanceLocation::Physical),
         "numerical" => Ok(ImpedanceLocation::Numerical),
         _ => Err(setup_error(format!(
-            "interface location {text:?}: use \"physical\" or \"numerical\""
+            "interface.location {text:?}: use \"physical\" or \"numerical\""
         ))),
     }
 }
@@ -419,12 +429,12 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Re
                 "interface: numerical_dofs and physical_dofs need one entry per channel",
             ));
         }
-        selector(&numerical, &i.numerical_dofs, "interface numerical_dofs")?
+        selector(&numerical, &i.numerical_dofs, "interface.channels numerical")?
     };
     let interface = Interface {
         location: location(&i.location)?,
         numerical_select,
-        physical_select: selector(&physical, &i.physical_dofs, "interface physical_dofs")?,
+        physical_select: selector(&physical, &i.physical_dofs, "interface.channels physical")?,
         stiffness: matrix(&i.stiffness, "interface stiffness")?,
         damping: matrix(&i.damping, "interface damping")?,
         velocity: match i.velocity_cutoff_hz {
@@ -518,7 +528,7 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Re
 }
 
 /// Largest factor (either way) between a tracking table's gain at its lowest frequency and
-/// 1 that [`check_tracking_gain`] accepts.
+/// 1 that the tracking-table check accepts.
 pub const MAX_TRACKING_DC_FACTOR: f64 = 4.0;
 
 /// A tracking response (achieved per demanded, both in the same unit) has a gain near 1 at
@@ -561,7 +571,7 @@ fn response(
         ResponseEntry::Named(n) if n == "none" => ResponseSource::Zero,
         ResponseEntry::Named(n) => {
             return Err(setup_error(format!(
-                "actuator {what} {n:?}: use \"reference\", \"none\", a model or a table"
+                "actuator.{what} {n:?}: use \"reference\", \"none\", a model or a table"
             )))
         }
         ResponseEntry::Model {
@@ -570,7 +580,7 @@ fn response(
             delay_s,
         } => {
             if !(delay_s.is_finite() && *delay_s >= 0.0) {
-                return Err(setup_error(format!("actuator {what} delay_s must be >= 0")));
+                return Err(setup_error(format!("actuator.{what} delay_s must be >= 0")));
             }
             ResponseSource::Model {
                 transfer_function: Rational::new(numerator.clone(), denominator.clone())?,
@@ -613,7 +623,7 @@ impl Setup {
     pub fn from_file(file: &SetupFile, folder: &Path) -> Result<Self> {
         let fs = file.controller.sample_rate_hz;
         if !(fs.is_finite() && fs > 0.0) {
-            return Err(setup_error("controller sample_rate_hz must be > 0"));
+            return Err(setup_error("controller.sample_rate_hz must be > 0"));
         }
         let structure = match file.model.example.as_str() {
             "tyre" => file.model.tyre.structure(1.0 / fs)?,
@@ -638,7 +648,7 @@ impl Setup {
             "position" => ActuatorControl::Position,
             other => {
                 return Err(setup_error(format!(
-                    "actuator control {other:?}: use \"force\" or \"position\""
+                    "actuator.control {other:?}: use \"force\" or \"position\""
                 )))
             }
         };
@@ -678,7 +688,7 @@ impl Setup {
             let (ff, cascade) = FilterFile::read(&folder.join(filter))?;
             if (ff.sample_rate_hz - fs).abs() > 1e-9 * fs {
                 return Err(setup_error(format!(
-                    "filter {} is for {} Hz, the controller runs at {fs} Hz",
+                    "controller.filter {} is for {} Hz, the controller runs at {fs} Hz",
                     filter.display(),
                     ff.sample_rate_hz
                 )));
@@ -707,7 +717,7 @@ impl Setup {
                 .position(|i| i.name == r.input)
                 .ok_or_else(|| {
                     setup_error(format!(
-                        "response {:?}: no input {:?} (inputs: {:?})",
+                        "analysis.responses {:?}: no input {:?} (inputs: {:?})",
                         r.name,
                         r.input,
                         system.inputs.iter().map(|i| &i.name).collect::<Vec<_>>()
@@ -723,11 +733,13 @@ impl Setup {
         }
         if responses.is_empty() {
             return Err(setup_error(
-                "[[analysis.responses]]: give at least one response",
+                "analysis.responses: give at least one response",
             ));
         }
         if !(file.noise.rms.is_finite() && file.noise.rms >= 0.0) {
-            return Err(setup_error("noise rms must be >= 0"));
+            return Err(setup_error(
+                "the measurement noise (sensors noise_rms) must be >= 0",
+            ));
         }
         let options = AnalysisOptions {
             f_min_hz: a.f_min_hz,

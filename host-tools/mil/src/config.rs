@@ -39,8 +39,8 @@ pub struct Config {
     pub tyre: Option<TyreSection>,
     /// Aero parameters (used when `model.kind = "aero"`).
     pub aero: Option<AeroSection>,
-    /// Vehicle speed over the run (aero model); `[aero] speed_m_per_s` is the shorthand for
-    /// a constant speed. Give one of the two.
+    /// Vehicle speed over the run (aero model, `[excitation] speed`); `speed_m_per_s` of
+    /// [`AeroSection`] is the shorthand for a constant speed. One of the two.
     pub speed: Option<SpeedInput>,
     /// The numerical substructure (used when `model.kind = "substructure"`).
     pub substructure: Option<SubstructureSection>,
@@ -68,7 +68,7 @@ pub struct Config {
     pub base: PathBuf,
 }
 
-/// `[run]`.
+/// Timing of the run (`[controller] sample_rate_hz`, `[excitation] duration_s`).
 #[derive(Clone, Debug)]
 pub struct RunSection {
     /// Control loop rate (Hz); the controller's sample period is its inverse.
@@ -84,7 +84,7 @@ pub struct ModelSection {
     pub kind: ModelKind,
 }
 
-/// `[tyre]`.
+/// model-core's tyre (`[numerical.tyre]`, the static load resolved).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TyreSection {
@@ -100,7 +100,7 @@ pub struct TyreSection {
     pub velocity_cutoff_hz: f32,
 }
 
-/// `[aero]`.
+/// model-core's aero model (`[numerical.aero]` with the half car's axles).
 #[derive(Clone, Debug)]
 pub struct AeroSection {
     /// `K_i` rows `[F_z; M_θ]`, columns `[z; θ]` (N/m, N/rad; N m/m, N m/rad).
@@ -113,11 +113,11 @@ pub struct AeroSection {
     pub front_axle_m: f32,
     /// Centroid to rear axle (m).
     pub rear_axle_m: f32,
-    /// Constant vehicle speed during the run (m/s); or give a `[speed]` table instead.
+    /// Constant vehicle speed during the run (m/s; `[excitation] speed_m_per_s`).
     pub speed_m_per_s: Option<f32>,
 }
 
-/// `[substructure]`: the numerical part on the board, model-core's general mass-spring-damper
+/// The board's substructure, built from `[numerical] structure`: the numerical part, model-core's general mass-spring-damper
 /// substructure with `B_i` numerical under force control (configuration 4): per channel it
 /// turns the measured attachment position `x̂_p` into the interface force
 /// `F_i = k_i (x_n,d − x̂_p) + c_i (ẋ_n,d − ẋ̂_p)` it demands of the actuator, and its masses
@@ -176,7 +176,7 @@ pub struct ControllerSection {
     pub filter: Option<String>,
 }
 
-/// `[rig]`: the simulated rig of `mil sim`.
+/// The simulated rig of `mil sim` (from `[physical]`, `[actuator]` and `[simulation]`).
 #[derive(Clone, Debug)]
 pub struct RigSection {
     /// RK4 step of the plants (s), at most the control period.
@@ -192,7 +192,7 @@ pub struct RigSection {
     pub suspension: Option<mil_structure::Element>,
     /// Effects of the emulated (real) tyre, the vehicle's own, by name with their
     /// parameters (`mil_structure::EffectKind`, e.g. `{ lift_off = {}, bump_stop = { ... } }`);
-    /// default: lift-off as `[tyre]` says. Effects here and not in the board's model are
+    /// default: lift-off as the numerical tyre has it. Effects here and not in the board's model are
     /// hidden effects.
     pub tyre_effects:
         Option<std::collections::BTreeMap<mil_structure::EffectKind, mil_structure::Parameters>>,
@@ -209,7 +209,7 @@ pub struct RigSection {
     pub half_car: Option<mil_analysis::examples::AeroExample>,
 }
 
-/// `[rig.structure]`: a structure file on the simulated rig.
+/// A structure file on the simulated rig (`[physical] structure`).
 #[derive(Clone, Debug)]
 pub struct StructureOnRig {
     /// The structure file, relative to the configuration. It must be at rest with zero
@@ -289,7 +289,7 @@ impl Default for CompareSection {
     }
 }
 
-/// `[limits]`.
+/// `[controller] limits`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LimitsSection {
@@ -353,12 +353,12 @@ pub enum PreparedSubstructure {
 }
 
 impl Config {
-    /// The tyre rig's quarter car: `[rig] quarter_car` or the paper's.
+    /// The tyre rig's quarter car (`[physical.quarter_car]`) or the paper's.
     pub fn quarter_car(&self) -> mil_analysis::examples::TyreExample {
         self.rig.quarter_car.unwrap_or_default()
     }
 
-    /// The aero rig's half car: `[rig] half_car` or the paper's.
+    /// The aero rig's half car (`[physical.half_car]`) or the paper's.
     pub fn half_car(&self) -> mil_analysis::examples::AeroExample {
         self.rig.half_car.unwrap_or_default()
     }
@@ -377,7 +377,7 @@ impl Config {
         self.samples().saturating_sub(1) as f64 / self.run.sample_rate_hz
     }
 
-    /// The aero run's speed: `[aero] speed_m_per_s` (constant) or `[speed]`, validated (a
+    /// The aero run's speed: `speed_m_per_s` (constant) or `speed`, validated (a
     /// recorded profile is read here).
     ///
     /// # Errors
@@ -471,7 +471,17 @@ impl Config {
         let filter = self.command_filter()?;
         let l = &self.limits;
         let param_error = |e: model_core::ParamError| {
-            anyhow::anyhow!("parameter rejected: {e:?} (field {:?})", e.field())
+            let why = match e {
+                model_core::ParamError::NotFinite(_) => "not finite",
+                model_core::ParamError::OutOfRange(_) => "out of the board's range",
+                model_core::ParamError::Unstable(_) => "unstable",
+                model_core::ParamError::Inconsistent(_) => "inconsistent",
+            };
+            anyhow::anyhow!(
+                "{}: {why} (the board refuses {:?})",
+                set_up_key(e.field()),
+                e.field()
+            )
         };
         match self.model.kind {
             ModelKind::Tyre => {
@@ -560,6 +570,35 @@ impl Config {
                 Ok(Validated::Substructure(prepared))
             }
         }
+    }
+}
+
+/// The set-up key that carries a model-core parameter.
+fn set_up_key(field: model_core::params::Field) -> &'static str {
+    use model_core::params::Field as F;
+    match field {
+        F::TyreStiffness => "numerical.tyre.stiffness_n_per_m",
+        F::TyreDamping => "numerical.tyre.damping_n_s_per_m",
+        F::TyreStaticLoad => "numerical.tyre.static_load_n",
+        F::TyreLiftOff => "numerical.tyre.lift_off",
+        F::VelocityCutoff => "the velocity_cutoff_hz of [numerical]",
+        F::AeroStiffness => "numerical.aero.stiffness",
+        F::AeroNominalForce => "numerical.aero.nominal_force",
+        F::AeroReferenceSpeed => "numerical.aero.reference_speed_m_per_s",
+        F::AeroAxleDistance => "physical.half_car front_axle_m / rear_axle_m",
+        F::SubstructureDof
+        | F::SubstructureMass
+        | F::SubstructureDamping
+        | F::SubstructureStiffness
+        | F::SubstructureGround => "numerical.structure",
+        F::SubstructureInterface => "interface.channels",
+        F::CommandFilter => "controller.filter",
+        F::DemandAmplitude => "controller.limits min / max",
+        F::DemandRate => "controller.limits.rate_per_s",
+        F::SafeDemand => "controller.limits.safe_demand",
+        F::SafeRampRate => "controller.limits.safe_ramp_rate_per_s",
+        F::SamplePeriod => "controller.sample_rate_hz",
+        _ => "a parameter of the set-up",
     }
 }
 
@@ -682,8 +721,8 @@ impl SubstructureSection {
 
 #[cfg(test)]
 mod tests {
-    use crate::setup::{SetUp, DEFAULT_SETUP};
     use crate::config::Validated;
+    use crate::setup::{SetUp, DEFAULT_SETUP};
     use std::path::Path;
 
     fn run(text: &str) -> anyhow::Result<Validated> {

@@ -26,7 +26,7 @@ pub struct DiagnoseRequest {
     /// Output folder (created if needed).
     pub out: PathBuf,
     /// Export this element of the updated model as model-core's real-time tyre (the
-    /// `[tyre]` table of a `mil sim` configuration, `tyre.toml` in the output folder).
+    /// `[numerical.tyre]` table of a MiL set-up, `tyre.toml` in the output folder).
     pub tyre: Option<TyreExport>,
 }
 
@@ -50,7 +50,7 @@ pub struct DiagnoseOutput {
     pub report: PathBuf,
     /// The plots written (SVG).
     pub plots: Vec<PathBuf>,
-    /// The `[tyre]` table written for model-core's real-time tyre (`--tyre`).
+    /// The `[numerical.tyre]` table written for model-core's real-time tyre (`--tyre`).
     pub tyre: Option<PathBuf>,
 }
 
@@ -100,7 +100,7 @@ pub fn run_diagnose(
     })
 }
 
-/// The `[tyre]` table of a `mil sim` configuration — model-core's real-time tyre, which the
+/// The `[numerical.tyre]` table of a MiL set-up — model-core's real-time tyre, which the
 /// board runs — from element `element` of a (diagnosed) model: its stiffness and damping,
 /// lift-off if the model has it, the static load from the lift-off preload (or
 /// `static_load_n`, which takes precedence), and the velocity low-pass of model-core's
@@ -168,16 +168,22 @@ pub fn tyre_section(
     Ok(section)
 }
 
-/// The text of `tyre.toml`: a comment saying where the values come from, then the `[tyre]`
-/// table.
+/// The text of `tyre.toml`: a comment saying where the values come from, then the
+/// `[numerical.tyre]` table.
 fn tyre_toml(section: &crate::config::TyreSection, element: &str, model: &Path) -> Result<String> {
     #[derive(serde::Serialize)]
-    struct Table<'a> {
+    struct Numerical<'a> {
         tyre: &'a crate::config::TyreSection,
     }
-    let body = toml::to_string(&Table { tyre: section })?;
+    #[derive(serde::Serialize)]
+    struct Table<'a> {
+        numerical: Numerical<'a>,
+    }
+    let body = toml::to_string(&Table {
+        numerical: Numerical { tyre: section },
+    })?;
     Ok(format!(
-        "# model-core's real-time tyre from element {element:?} of the model diagnosed from\n# {} (mil diagnose --tyre): paste this [tyre] table into a `mil sim` configuration.\n{body}",
+        "# model-core's real-time tyre from element {element:?} of the model diagnosed from\n# {} (mil diagnose --tyre): this [numerical.tyre] table replaces a MiL set-up's.\n{body}",
         model.display()
     ))
 }
@@ -580,14 +586,30 @@ mod tests {
         assert_eq!(t.damping_n_s_per_m, 500.0);
         assert_eq!(t.static_load_n, 1668.5);
         assert!(t.lift_off);
-        // The file is a `[tyre]` table that a `mil sim` configuration reads back.
+        // The file is a `[numerical.tyre]` table that a MiL set-up reads back.
         let text = tyre_toml(&t, "tyre", Path::new("tyre.toml")).expect("toml");
         #[derive(serde::Deserialize)]
         struct Table {
-            tyre: crate::config::TyreSection,
+            numerical: crate::setup::Numerical,
         }
         let back: Table = toml::from_str(&text).expect("parses");
-        assert_eq!(back.tyre, t);
+        let n = back.numerical.tyre.expect("tyre");
+        assert_eq!(
+            (
+                n.stiffness_n_per_m,
+                n.damping_n_s_per_m,
+                n.static_load_n,
+                n.lift_off,
+                n.velocity_cutoff_hz
+            ),
+            (
+                t.stiffness_n_per_m,
+                t.damping_n_s_per_m,
+                Some(t.static_load_n),
+                t.lift_off,
+                t.velocity_cutoff_hz
+            )
+        );
         // An explicit static load takes precedence.
         let t2 = tyre_section(&m, "tyre", Some(1700.0)).expect("tyre");
         assert_eq!(t2.static_load_n, 1700.0);

@@ -1,6 +1,7 @@
-//! The `mil` tool's library: typed run configuration (TOML, validated once into model-core's
-//! parameter set), generated and recorded road inputs, and the run of the real-time
-//! controller step with its CSV, SVG and summary outputs.
+//! The `mil` tool's library: the MiL set-up file ([`setup`]: one description of an
+//! experiment, turned into the linear analysis and into the run, validated once into
+//! model-core's parameter set), generated and recorded road inputs, and the run of the
+//! real-time controller step with its CSV, SVG and summary outputs.
 //!
 //! `mil sim` ([`sim`]) runs the controller in closed loop with the simulated rig
 //! (`mil-rig`) and the emulated system alongside; `mil run` ([`mod@run`]) drives it open-loop
@@ -25,8 +26,8 @@ pub mod identify;
 pub mod param;
 pub mod plot;
 pub mod run;
-pub mod signals;
 pub mod setup;
+pub mod signals;
 pub mod sim;
 pub mod xcp;
 

@@ -171,7 +171,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Also write the updated model's element ELEMENT as model-core's real-time tyre
-        /// (tyre.toml: the [tyre] table of a `mil sim` configuration; stiffness, damping,
+        /// (tyre.toml: the [numerical.tyre] table of a MiL set-up; stiffness, damping,
         /// static load and lift-off).
         #[arg(long, value_name = "ELEMENT")]
         tyre: Option<String>,
@@ -191,9 +191,8 @@ enum Command {
         out: PathBuf,
     },
     /// Validate any of the project's files exactly as the commands that read it do, and
-    /// report the first problem: a structure (TOML with [[dof]]), a run configuration
-    /// ([run]), an analysis set-up (configuration = ...), a filter file (JSON) or a record
-    /// (CSV).
+    /// report the first problem: a MiL set-up (TOML with [controller]), a structure (TOML
+    /// with [[dof]]), a filter file (JSON) or a record (CSV).
     Check {
         /// The file.
         file: PathBuf,
@@ -409,7 +408,8 @@ fn run(cli: Cli) -> Result<()> {
             out,
             json,
         } => {
-            let result = mil::analyze::run_analyze(&set_up(Some(&setup), filter.as_deref())?, &out)?;
+            let result =
+                mil::analyze::run_analyze(&set_up(Some(&setup), filter.as_deref())?, &out)?;
             if json {
                 outln!("{}", serde_json::to_string(&result.summary())?);
             } else {

@@ -282,9 +282,13 @@ mod tests {
     fn tyre_run_matches_the_spring_damper_law() {
         let pink = "road = { kind = \"pink\", rms_m = 0.0005, max_hz = 40.0, seed = 1 }";
         assert!(DEFAULT_SETUP.contains(pink));
-        let sweep = "road = { kind = \"sweep\", amplitude_m = 0.004, start_hz = 0.5, end_hz = 30.0 }";
+        let sweep =
+            "road = { kind = \"sweep\", amplitude_m = 0.004, start_hz = 0.5, end_hz = 30.0 }";
         let text = DEFAULT_SETUP.replace(pink, sweep);
-        let c = SetUp::from_toml(&text, Path::new(".")).unwrap().run().unwrap();
+        let c = SetUp::from_toml(&text, Path::new("."))
+            .unwrap()
+            .run()
+            .unwrap();
         let out = run(&c, |_| {}).unwrap();
         assert_eq!(out.summary.samples, 40_000);
         assert!(out.summary.fault_at_s.is_none());

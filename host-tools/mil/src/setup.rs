@@ -28,9 +28,9 @@
 //! numerical), which is what model-core's models compute.
 
 use crate::config::{
-    AeroSection, CompareSection, Config, ControllerSection, LimitsSection, LinksSection,
-    ModelKind, ModelSection, RigSection, RoadCoupling, RunSection, SensorsSection,
-    StructureOnRig, SubstructureChannel, SubstructureSection, TyreSection,
+    AeroSection, CompareSection, Config, ControllerSection, LimitsSection, LinksSection, ModelKind,
+    ModelSection, RigSection, RoadCoupling, RunSection, SensorsSection, StructureOnRig,
+    SubstructureChannel, SubstructureSection, TyreSection,
 };
 use crate::signals::{RoadInput, SpeedInput};
 use anyhow::{bail, Context, Result};
@@ -63,9 +63,11 @@ pub struct SetUp {
     pub configuration: Option<u8>,
     /// The board: rate, command filter, demand limits and safe state.
     pub controller: ControllerSetUp,
-    /// The numerical part: the model the board runs.
+    /// The numerical part: the model the board runs (one of its tables is required).
+    #[serde(default)]
     pub numerical: Numerical,
-    /// The physical part: what stands on the rig.
+    /// The physical part: what stands on the rig (one of its tables is required).
+    #[serde(default)]
     pub physical: Physical,
     /// Where the actuators join a numerical and a physical structure (structures only).
     pub interface: Option<InterfaceSetUp>,
@@ -485,13 +487,8 @@ impl SetUp {
                     velocity_cutoff_hz: f64::from(t.velocity_cutoff_hz),
                     velocity_estimate: t.velocity_estimate,
                 };
-                default_responses = vec![(
-                    "tyre force / road",
-                    "road",
-                    "interface_force",
-                    1e-3,
-                    "N/mm",
-                )];
+                default_responses =
+                    vec![("tyre force / road", "road", "interface_force", 1e-3, "N/mm")];
             }
             Pair::Aero(a, h) => {
                 model.example = "aero".into();
@@ -544,8 +541,11 @@ impl SetUp {
                         })
                         .collect()
                 };
-                let numerical_dofs: Vec<String> =
-                    i.channels.iter().filter_map(|c| c.numerical.clone()).collect();
+                let numerical_dofs: Vec<String> = i
+                    .channels
+                    .iter()
+                    .filter_map(|c| c.numerical.clone())
+                    .collect();
                 if !(numerical_dofs.is_empty() || numerical_dofs.len() == m) {
                     bail!("interface.channels: name the numerical DOF on every channel or none");
                 }
@@ -664,9 +664,7 @@ impl SetUp {
         let (mut tyre, mut aero, mut substructure) = (None, None, None);
         let (kind, analysis_inputs) = match self.pair()? {
             Pair::Tyre(t, q) => {
-                let load = t
-                    .static_load_n
-                    .unwrap_or(Self::static_wheel_load(q) as f32);
+                let load = t.static_load_n.unwrap_or(Self::static_wheel_load(q) as f32);
                 tyre = Some(TyreSection {
                     stiffness_n_per_m: t.stiffness_n_per_m,
                     damping_n_s_per_m: t.damping_n_s_per_m,
@@ -884,7 +882,12 @@ impl SetUp {
 }
 
 /// The channel of a road name (`"road_c"`), or `None` for `"fixed"`.
-pub(crate) fn road_channel(road: &str, channels: usize, what: &str, input: &str) -> Result<Option<usize>> {
+pub(crate) fn road_channel(
+    road: &str,
+    channels: usize,
+    what: &str,
+    input: &str,
+) -> Result<Option<usize>> {
     if road == "fixed" {
         return Ok(None);
     }
@@ -906,8 +909,8 @@ fn structure_inputs(file: &SetupFile, base: &Path) -> Result<Vec<String>> {
     let mut names = Vec::new();
     for part in [&file.numerical, &file.physical].into_iter().flatten() {
         if let Some(s) = &part.structure {
-            let model = mil_structure::Model::read(&base.join(s))
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            let model =
+                mil_structure::Model::read(&base.join(s)).map_err(|e| anyhow::anyhow!("{e}"))?;
             for i in &model.inputs {
                 if i.kind == InputKind::Displacement && !names.contains(&i.name) {
                     names.push(i.name.clone());
@@ -944,7 +947,10 @@ mod tests {
         let ch = &sub.channels[0];
         assert_eq!(ch.dof, "x_n");
         assert_eq!(
-            (ch.interface_stiffness_n_per_m, ch.interface_damping_n_s_per_m),
+            (
+                ch.interface_stiffness_n_per_m,
+                ch.interface_damping_n_s_per_m
+            ),
             (1.0e4, 5.0)
         );
         assert_eq!(ch.road.len(), 1);
@@ -967,7 +973,10 @@ mod tests {
     fn roads_effects_and_pairs_are_checked() {
         let text = std::fs::read_to_string(examples().join("two-dof.toml")).unwrap();
         let base = examples();
-        let fixed = text.replace("roads = { z_n = \"road_0\" }", "roads = { z_n = \"fixed\" }");
+        let fixed = text.replace(
+            "roads = { z_n = \"road_0\" }",
+            "roads = { z_n = \"fixed\" }",
+        );
         let c = SetUp::from_toml(&fixed, &base).unwrap().run().unwrap();
         let sub = c.substructure.unwrap();
         assert_eq!((sub.stiffness[0][0], sub.damping[0][0]), (4.0e4, 20.0));
@@ -978,7 +987,11 @@ mod tests {
         };
         let unmapped = text.replace("roads = { z_n = \"road_0\" }", "");
         assert_ne!(unmapped, text);
-        assert!(err(&unmapped).contains("numerical.roads"), "{}", err(&unmapped));
+        assert!(
+            err(&unmapped).contains("numerical.roads"),
+            "{}",
+            err(&unmapped)
+        );
         let far = text.replace("z_n = \"road_0\"", "z_n = \"road_3\"");
         assert!(err(&far).contains("road_3"), "{}", err(&far));
         let position = text.replace("control = \"force\"", "control = \"position\"");
@@ -988,7 +1001,10 @@ mod tests {
             "[numerical]\nstructure = \"two-dof-numerical.toml\"",
             "[numerical.tyre]\nstiffness_n_per_m = 2.5e5\ndamping_n_s_per_m = 500.0\n[numerical.x]\nstructure = \"two-dof-numerical.toml\"",
         );
-        assert!(SetUp::from_toml(&tyre, &base).is_err(), "unknown key refused");
+        assert!(
+            SetUp::from_toml(&tyre, &base).is_err(),
+            "unknown key refused"
+        );
         let dir = tempfile::tempdir().unwrap();
         let numerical = std::fs::read_to_string(examples().join("two-dof-numerical.toml"))
             .unwrap()
@@ -1008,7 +1024,10 @@ mod tests {
     /// balance it (a load in kg) is refused.
     #[test]
     fn the_static_wheel_load_is_the_weight() {
-        let c = SetUp::from_toml(DEFAULT_SETUP, Path::new(".")).unwrap().run().unwrap();
+        let c = SetUp::from_toml(DEFAULT_SETUP, Path::new("."))
+            .unwrap()
+            .run()
+            .unwrap();
         let load = c.tyre.as_ref().unwrap().static_load_n;
         assert!((f64::from(load) - 170.0 * 9.81).abs() < 1e-3, "{load}");
         let kg = DEFAULT_SETUP.replace(

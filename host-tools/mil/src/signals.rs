@@ -40,7 +40,7 @@ pub enum RoadInput {
     /// A recorded profile: CSV with a header, `time` (s, uniform) first, then one road column
     /// per channel (m), or a single column applied to every channel.
     Csv {
-        /// Path of the CSV file, relative to the configuration file.
+        /// Path of the CSV file, relative to the set-up file.
         path: String,
     },
 }
@@ -59,7 +59,7 @@ impl RoadInput {
                     bail!("excitation.road.amplitude_m must be in [0, 1) m, got {amplitude_m}");
                 }
                 if !(*start_hz > 0.0 && end_hz > start_hz && *end_hz < nyquist) {
-                    bail!("input sweep needs 0 < start_hz < end_hz < {nyquist} Hz (Nyquist)");
+                    bail!("excitation.road (sweep) needs 0 < start_hz < end_hz < {nyquist} Hz (Nyquist)");
                 }
             }
             RoadInput::Pink { rms_m, max_hz, .. } => {
@@ -79,7 +79,7 @@ impl RoadInput {
                     bail!("excitation.road.height_m must be finite and below 1 m");
                 }
                 if !(*duration_s > 0.0 && at_s.is_finite() && *at_s >= 0.0) {
-                    bail!("input bump needs duration_s > 0 and at_s >= 0");
+                    bail!("excitation.road (bump) needs duration_s > 0 and at_s >= 0");
                 }
             }
             RoadInput::Csv { path } => {
@@ -309,7 +309,7 @@ pub enum SpeedInput {
     /// rows. The rows must cover the run (first time at most 0 s, last at least the last
     /// sample's time).
     Csv {
-        /// Path of the CSV file, relative to the configuration file.
+        /// Path of the CSV file, relative to the set-up file.
         path: String,
         /// Header of the speed column; none: the file must have exactly one column after
         /// `time`.
@@ -443,7 +443,7 @@ pub fn read_speed_profile(
             .with_context(|| format!("{name}: no column {c:?} (excitation.speed.column)"))?,
         None if table.names.len() == 2 => 1,
         None => bail!(
-            "{name}: {} columns after `time`: name the speed column with speed.column",
+            "{name}: {} columns after `time`: name the speed column with excitation.speed.column",
             table.names.len().saturating_sub(1)
         ),
     };

@@ -1,10 +1,9 @@
 //! `mil sim`: the board's controller step in closed loop with the simulated rig, the emulated
 //! system (the real vehicle) alongside on the same road, and how close the two are.
 //!
-//! The run configuration is `mil run`'s (`[run]`, `[model]`, `[tyre]`/`[aero]` and
-//! `[speed]`/`[substructure]`, `[limits]`, `[input]`, `[controller]`) plus the rig (`[rig]`,
-//! with the physical specimen of a substructure in `[rig.structure]` (a structure file); `[sensors]`,
-//! `[links]`) and the comparison (`[compare]`). Outputs: the time histories (CSV, `time` first, SI units),
+//! It runs a MiL set-up ([`crate::setup::SetUp::sim`]): the board's model, limits and
+//! filter, the rig (the physical part, the actuators, sensors, links) and the excitation.
+//! Outputs: the time histories (CSV, `time` first, SI units),
 //! SVG plots, and a summary: per channel the error figures of MiL against emulated for the
 //! interface force and position (J1 delay at the cross-correlation peak, J2 normalised RMS
 //! error, J3 normalised peak error, see [`mil_rig::metrics`]), and the response estimated
@@ -81,7 +80,7 @@ pub struct ResponseSummary {
     pub mil_vs_analysis: Option<Deviation>,
     /// Emulated estimate against the analysis' emulated prediction.
     pub emulated_vs_analysis: Option<Deviation>,
-    /// The analysis set-up compared with.
+    /// The name of the set-up whose analysis the run is compared with.
     pub analysis: Option<String>,
     /// Why the comparison with the analysis set-up was left out, if it was (e.g. an aero
     /// run away from the set-up's reference speed).
@@ -400,7 +399,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
 }
 
 /// The run's physical specimen on `CH` force-controlled actuators with the board's
-/// substructure model: builds the rig part from `[rig.structure]` and runs it. Returns the
+/// substructure model: builds the rig part from `[physical] structure` and runs it. Returns the
 /// histories, the link statistics and the command filter's sections.
 fn substructure<const CH: usize>(
     prepared: PreparedParams<SubstructureModel<CH>, CH>,
@@ -648,7 +647,7 @@ fn response(
         };
         if v != [reference; 2] {
             summary.analysis_skipped = Some(format!(
-                "the analysis set-up holds at the reference speed ({reference} m/s) only, {what}"
+                "the set-up's analysis holds at the reference speed ({reference} m/s) only, {what}"
             ));
             return Ok(Some((summary, curves)));
         }

@@ -1,14 +1,20 @@
 //! `mil analyze` on the shipped set-ups reproduces the paper's figures (A. R. Plummer,
 //! "Model-in-the-loop testing", 2006) with the reference actuator, and writes its outputs.
 
-use mil::analyze::run_analyze;
+use mil::analyze::{run_analyze, AnalyzeOutput};
+use mil::setup::SetUp;
 use mil_analysis::Stability;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 fn setup(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/analyze")
+        .join("examples")
         .join(name)
+}
+
+/// `mil analyze` on the set-up file at `path`.
+fn analyze_file(path: &Path, out: &Path) -> anyhow::Result<AnalyzeOutput> {
+    run_analyze(&SetUp::read(path)?, out)
 }
 
 /// Paper section 4: body bounce near 4 Hz captured; a very lightly damped MiL resonance at
@@ -18,7 +24,9 @@ fn setup(name: &str) -> PathBuf {
 #[test]
 fn tyre_example_reproduces_the_paper() {
     let out = tempfile::tempdir().unwrap();
-    let r = run_analyze(&setup("tyre.toml"), out.path()).unwrap().report;
+    let r = analyze_file(&setup("tyre.toml"), out.path())
+        .unwrap()
+        .report;
     assert_eq!(r.configuration, 4);
     assert_eq!(r.mil_loop.filter, None);
     assert!(
@@ -83,7 +91,9 @@ fn tyre_example_reproduces_the_paper() {
 #[test]
 fn aero_example_captures_the_pitch_resonance() {
     let out = tempfile::tempdir().unwrap();
-    let r = run_analyze(&setup("aero.toml"), out.path()).unwrap().report;
+    let r = analyze_file(&setup("aero.toml"), out.path())
+        .unwrap()
+        .report;
     assert_eq!(r.channels, 2);
     assert_eq!(r.mil.stability, Stability::Stable);
     let vertical = &r.responses[0];
@@ -113,7 +123,7 @@ fn aero_example_captures_the_pitch_resonance() {
 #[test]
 fn two_dof_example_with_the_hub_actuator_is_reported_unstable() {
     let out = tempfile::tempdir().unwrap();
-    let r = run_analyze(&setup("two-dof.toml"), out.path()).unwrap();
+    let r = analyze_file(&setup("two-dof-hub-actuator.toml"), out.path()).unwrap();
     assert_eq!(r.report.mil.stability, Stability::Unstable(2));
     assert_eq!(r.report.emulated.stability, Stability::Stable);
     assert!(r.table().contains("WARNING"));
@@ -126,7 +136,7 @@ fn two_dof_example_with_the_hub_actuator_is_reported_unstable() {
 #[test]
 fn json_summary_has_the_documented_fields() {
     let out = tempfile::tempdir().unwrap();
-    let r = run_analyze(&setup("tyre.toml"), out.path()).unwrap();
+    let r = analyze_file(&setup("tyre.toml"), out.path()).unwrap();
     let json = serde_json::to_value(r.summary()).unwrap();
     for key in [
         "gain_margin",
@@ -168,9 +178,10 @@ fn bad_setups_name_the_problem() {
         ),
     ];
     for (body, needle) in cases {
+        assert_ne!(body, text, "{needle}: the edit applies to tyre.toml");
         let path = dir.path().join("bad.toml");
         std::fs::write(&path, body).unwrap();
-        let e = match run_analyze(&path, dir.path()) {
+        let e = match analyze_file(&path, dir.path()) {
             Ok(_) => panic!("{needle}: accepted"),
             Err(e) => format!("{e:#}"),
         };
@@ -178,64 +189,74 @@ fn bad_setups_name_the_problem() {
     }
 }
 
-/// The custom (matrix) form of the 2-DOF example describes the same system as the built-in
-/// one: identical MiL and emulated responses to 1e-12 relative.
+/// The 2-DOF set-up on the hub actuator (its numerical and physical parts structure files)
+/// describes the same system as the analysis library's built-in 2-DOF example
+/// (`TwoDofExample` defaults) on the reference actuator with the set-up's loop delay
+/// (1.5 samples at 2 kHz): identical MiL and emulated responses to 1e-12 relative.
 #[test]
 fn custom_two_dof_equals_the_built_in_example() {
-    use mil_analysis::setup::Setup;
-    use mil_analysis::Loop;
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(setup("two-dof.toml")).unwrap();
-    let start = text.find("\n[numerical]").unwrap();
-    let end = text.find("\n[actuator]").unwrap();
-    let builtin =
-        text[..start].replace("example = \"custom\"", "example = \"two-dof\"") + &text[end..];
-    let path = dir.path().join("builtin.toml");
-    std::fs::write(&path, builtin).unwrap();
-    let a = Setup::read(&setup("two-dof.toml")).unwrap().system;
-    let b = Setup::read(&path).unwrap().system;
+    use mil_analysis::examples::{force_actuators, TwoDofExample};
+    use mil_analysis::{Loop, ServoHydraulicActuator};
+    let a = SetUp::read(&setup("two-dof-hub-actuator.toml"))
+        .unwrap()
+        .analysis()
+        .unwrap()
+        .system;
+    let b = TwoDofExample::default()
+        .structure()
+        .unwrap()
+        .with_actuators(force_actuators(&ServoHydraulicActuator::REFERENCE, 1.5 / 2000.0).unwrap());
+    assert_eq!((a.configuration(), b.configuration()), (4, 4));
+    assert!(a.filter.is_none());
     for f in [1.0, 10.07, 13.3, 50.0] {
         for which in [Loop::Mil, Loop::Emulated] {
             let (pa, pb) = (a.point(f, which).unwrap(), b.point(f, which).unwrap());
+            assert_eq!(pa.physical.shape(), pb.physical.shape(), "{f} Hz");
             let d = (&pa.physical - &pb.physical).norm() / pb.physical.norm();
             assert!(d < 1e-12, "{f} Hz: {d}");
         }
     }
 }
 
-/// A structure file is a set-up's physical part: the 2-DOF small-actuator set-up, whose
-/// `[physical] structure = "../sim/msd-physical.toml"` is what `mil sim` runs on the rig (and
-/// what `mil diagnose` reads and writes), gives the same analysis as the part's matrices
-/// written out, to rounding; and a structure with a hidden cubic spring analyses as its
-/// linear part.
+/// A structure file is a set-up's physical part: the 2-DOF set-up on the small actuator
+/// (without its command filter), whose `[physical] structure = "two-dof-physical.toml"` is
+/// what `mil sim` runs on the rig (and what `mil diagnose` reads and writes), gives the same
+/// analysis as the part's matrices written out in code (`TwoDofExample`'s, its post input
+/// `z_p` left out: the mass stands on the rig's bed), to rounding; and a structure with a
+/// hidden cubic spring analyses as its linear part.
 #[test]
 fn a_structure_file_is_the_physical_part() {
-    let text = std::fs::read_to_string(setup("two-dof-small-actuator.toml")).unwrap();
-    let matrices =
-        "[physical]\ndofs = [\"x_p\"]\nmass = [[5.0]]\ndamping = [[10.0]]\nstiffness = [[2.0e4]]\n";
-    let shipped = "[physical]\nstructure = \"../sim/msd-physical.toml\"\n";
-    assert!(text.contains(shipped));
-    // In a folder of its own, with the structure file beside it.
+    use mil_analysis::analyze::analyze;
+    use mil_analysis::examples::TwoDofExample;
+    let mut shipped = SetUp::read(&setup("two-dof.toml")).unwrap();
+    assert_eq!(
+        shipped.physical.structure.as_deref(),
+        Some(Path::new("two-dof-physical.toml"))
+    );
+    assert!(shipped.controller.filter.is_some());
+    shipped.controller.filter = None;
     let out = tempfile::tempdir().unwrap();
-    let physical = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim/msd-physical.toml");
-    let linear = std::fs::read_to_string(physical).unwrap();
+    let a = run_analyze(&shipped, out.path()).unwrap();
+    // The same parts as matrices: x_n (m_n, c_n, k_n to z_n), x_p (m_p, c_p, k_p to the bed),
+    // B_i numerical; the set-up's own actuator and analysis options.
+    let mut structure = TwoDofExample::default().structure().unwrap();
+    assert_eq!(structure.inputs[1].name, "z_p");
+    structure.inputs.truncate(1);
+    let matrices = structure.with_actuators(a.setup.system.actuators.clone());
+    let b = analyze(&matrices, &a.setup.options).unwrap();
+    // The physical part with a hidden cubic spring, in a folder of its own.
+    let linear = std::fs::read_to_string(setup("two-dof-physical.toml")).unwrap();
+    let cubic = out.path().join("cubic.toml");
     std::fs::write(
-        out.path().join("cubic.toml"),
+        &cubic,
         linear + "\n[[effect]]\neffect = \"cubic_stiffness\"\nelement = \"k_p, c_p to the bed\"\nparameters = { stiffness_n_per_m3 = 1e9 }\n",
     )
     .unwrap();
-    let with_structure = out.path().join("two-dof-structure.toml");
-    let report = |physical: &str| {
-        std::fs::write(&with_structure, text.replace(shipped, physical)).unwrap();
-        run_analyze(&with_structure, out.path()).unwrap().report
-    };
-    let a = report(matrices);
-    let b = run_analyze(&setup("two-dof-small-actuator.toml"), out.path())
-        .unwrap()
-        .report;
-    let c = report("[physical]\nstructure = \"cubic.toml\"\n");
+    let mut with_cubic = shipped.clone();
+    with_cubic.physical.structure = Some(cubic);
+    let c = run_analyze(&with_cubic, out.path()).unwrap().report;
     let (ja, jb) = (
-        serde_json::to_value(&a).unwrap(),
+        serde_json::to_value(&a.report).unwrap(),
         serde_json::to_value(&b).unwrap(),
     );
     fn same(a: &serde_json::Value, b: &serde_json::Value, at: &str) {

@@ -1,6 +1,6 @@
 //! `mil analyze` with position-controlled actuators: the paper's 2-DOF example (Lim et al.,
 //! Plummer 2006 section 2.5) in configuration 1 (interface impedance `B_i` physical) and
-//! configuration 3 (`B_i` numerical), `examples/analyze/two-dof-position-*.toml`.
+//! configuration 3 (`B_i` numerical), `examples/two-dof-position-*.toml`.
 //!
 //! Every expected value here is derived by hand from the paper's block diagrams (Figs 5 and
 //! 8) and the actuator's physical parameters, not copied from the tool's output:
@@ -13,6 +13,7 @@
 //!
 //! (loop broken at the numerical model's summing junction, return difference `1 + L`).
 
+use mil::setup::SetUp;
 use mil_analysis::analyze::{analyze, AnalysisReport};
 use mil_analysis::poly::{add, mul, Rational};
 use mil_analysis::setup::Setup;
@@ -23,7 +24,7 @@ use mil_analysis::{
 use mil_discretise::polyval;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 const PHYSICAL: &str = "two-dof-position-physical.toml";
 const NUMERICAL: &str = "two-dof-position-numerical.toml";
@@ -42,14 +43,19 @@ const K_I: f64 = 1.0e4;
 /// Loop delay of the set-ups: 1.5 samples at 2 kHz (s).
 const LOOP_DELAY: f64 = 1.5 / 2000.0;
 
-fn setup_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/analyze")
-        .join(name)
+fn examples() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples")
 }
 
+fn setup_path(name: &str) -> PathBuf {
+    examples().join(name)
+}
+
+/// The analysis of a shipped set-up.
 fn read(name: &str) -> Setup {
-    Setup::read(&setup_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+    SetUp::read(&setup_path(name))
+        .and_then(|s| s.analysis())
+        .unwrap_or_else(|e| panic!("{name}: {e:#}"))
 }
 
 // ---------------------------------------------------------------------------------------
@@ -356,38 +362,49 @@ fn actuator_is_a_realistic_position_servo() {
 // ---------------------------------------------------------------------------------------
 // Perfect actuators: MiL = emulated = the coupled system solved directly.
 
-/// The set-up text with other actuator responses and loop delay.
+/// The set-up text with other actuator responses (`[actuator]`) and loop delay
+/// (`[controller]`).
 fn variant(name: &str, tracking: &str, disturbance: &str, loop_delay_s: f64) -> String {
     let text = std::fs::read_to_string(setup_path(name)).unwrap();
     let mut out = String::new();
+    let mut edits = 0;
     for line in text.lines() {
         if line.starts_with("tracking = ") {
-            out += &format!("tracking = {tracking}\nloop_delay_s = {loop_delay_s:e}\n");
+            out += &format!("tracking = {tracking}\n");
+            edits += 1;
         } else if line.starts_with("disturbance = ") {
             out += &format!("disturbance = {disturbance}\n");
+            edits += 1;
+        } else if line.starts_with("sample_rate_hz = ") {
+            out += &format!("{line}\nloop_delay_s = {loop_delay_s:e}\n");
+            edits += 1;
         } else {
             out += line;
             out.push('\n');
         }
     }
-    assert!(out.contains("loop_delay_s"), "{name}: no tracking line");
+    assert_eq!(
+        edits, 3,
+        "{name}: tracking, disturbance and sample rate lines"
+    );
     out
 }
 
-fn read_text(dir: &Path, file: &str, text: &str) -> Setup {
-    let path = dir.join(file);
-    std::fs::write(&path, text).unwrap();
-    Setup::read(&path).unwrap_or_else(|e| panic!("{file}: {e}"))
+/// The analysis of a set-up text, its relative file names in the examples folder.
+fn read_text(file: &str, text: &str) -> Setup {
+    SetUp::from_toml(text, &examples())
+        .and_then(|s| s.analysis())
+        .unwrap_or_else(|e| panic!("{file}: {e:#}"))
 }
 
-fn perfect(name: &str, dir: &Path) -> Setup {
+fn perfect(name: &str) -> Setup {
     let text = variant(
         name,
         "{ numerator = [1.0], denominator = [1.0] }",
         "\"none\"",
         0.0,
     );
-    read_text(dir, name, &text)
+    read_text(name, &text)
 }
 
 /// The coupled 2-DOF system at `s`: `[a_n + b, −b; −b, a_p + b] x = E w`, for the inputs
@@ -416,9 +433,8 @@ fn assert_rel(got: Complex64, expected: Complex64, tol: f64, what: &str) {
 
 #[test]
 fn perfect_actuators_give_the_emulated_system_which_is_the_coupled_2dof_system() {
-    let dir = tempfile::tempdir().unwrap();
     for (name, config) in [(PHYSICAL, 1), (NUMERICAL, 3)] {
-        let setup = perfect(name, dir.path());
+        let setup = perfect(name);
         let system = &setup.system;
         assert_eq!(system.configuration(), config);
         assert_eq!(system.actuators.loop_delay_s, 0.0);
@@ -503,20 +519,33 @@ fn both_configurations_emulate_the_same_system() {
     }
 }
 
-/// The configuration-1 file is the built-in `two-dof` example with the interface in the
-/// physical part, as its header says.
+/// The configuration-1 file is the analysis library's built-in 2-DOF example
+/// (`TwoDofExample` defaults) with the interface in the physical part, as its header says,
+/// on the built-in position servo with the set-up's loop delay.
 #[test]
 fn physical_file_equals_the_built_in_example() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(setup_path(PHYSICAL)).unwrap();
-    let start = text.find("\n[numerical]").unwrap();
-    let end = text.find("\n[actuator]").unwrap();
-    let builtin = text[..start].replace(
-        "example = \"custom\"",
-        "example = \"two-dof\"\n[model.two_dof]\ninterface_in_numerical = false",
-    ) + &text[end..];
+    use mil_analysis::examples::TwoDofExample;
+    use mil_analysis::{Actuators, PositionServoActuator};
     let a = read(PHYSICAL).system;
-    let b = read_text(dir.path(), "builtin.toml", &builtin).system;
+    let servo = PositionServoActuator::REFERENCE;
+    let model = |transfer_function| ResponseSource::Model {
+        transfer_function,
+        delay_s: 0.0,
+    };
+    let b = TwoDofExample {
+        interface_in_numerical: false,
+        ..TwoDofExample::default()
+    }
+    .structure()
+    .unwrap()
+    .with_actuators(Actuators {
+        control: ActuatorControl::Position,
+        tracking: model(servo.tracking().unwrap()),
+        disturbance: model(servo.disturbance().unwrap()),
+        // Replaced by the structure's (identity, one channel).
+        transform: a.actuators.transform.clone(),
+        loop_delay_s: LOOP_DELAY,
+    });
     assert_eq!(b.configuration(), 1);
     for f in [1.0, 10.066, 12.4, 50.0] {
         for which in [Loop::Mil, Loop::Emulated] {
@@ -941,9 +970,20 @@ fn actuator_lines() -> String {
         .collect()
 }
 
-const TYRE_RESPONSE: &str = "[controller]\nsample_rate_hz = 2000.0\n\
-    [[analysis.responses]]\nname = \"tyre force / road\"\ninput = \"road\"\n\
-    output = \"interface_force\"\n";
+/// The paper's tyre example (`tyre.toml`: the numerical tyre on the physical quarter car,
+/// paper values) under position control with the actuator lines of the position set-ups:
+/// configuration 3.
+fn tyre_position_text() -> String {
+    let text = std::fs::read_to_string(setup_path("tyre.toml")).unwrap();
+    for key in ["configuration = 4", "control = \"force\""] {
+        assert_eq!(text.matches(key).count(), 1, "tyre.toml: {key}");
+    }
+    text.replace("configuration = 4", "configuration = 3")
+        .replace(
+            "control = \"force\"",
+            &format!("control = \"position\"\n{}", actuator_lines()),
+        )
+}
 
 /// Configuration 3 with the paper's tyre: the numerical tyre turns the measured hub force
 /// into a hub position through `B_t⁻¹`, and the actuator pushes the unsprung mass:
@@ -952,13 +992,7 @@ const TYRE_RESPONSE: &str = "[controller]\nsample_rate_hz = 2000.0\n\
 /// than 90°: unstable, and the gain grows without bound as `k_t → 0` (lift-off).
 #[test]
 fn tyre_with_position_control_is_unstable() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = format!(
-        "name = \"tyre-position\"\nconfiguration = 3\n[model]\nexample = \"tyre\"\n\
-         [actuator]\ncontrol = \"position\"\n{}{TYRE_RESPONSE}",
-        actuator_lines()
-    );
-    let system = read_text(dir.path(), "tyre-position.toml", &text).system;
+    let system = read_text("tyre-position.toml", &tyre_position_text()).system;
     assert_eq!(system.configuration(), 3);
     let (m_s, c_c, k_c, m_u, c_t, k_t) = (150.0, 2.5e3, 120e3, 20.0, 500.0, 250e3);
     let servo = PositionServo::FILE;
@@ -990,22 +1024,18 @@ fn tyre_with_position_control_is_unstable() {
 
 /// Configuration 1 with the tyre would put the real tyre between the actuator and the hub,
 /// and the numerical part has no masses left: it only prescribes the road, and there is no
-/// loop (`L ≡ 0`) -- a conventional tyre-coupled road simulator, not MiL.
+/// loop (`L ≡ 0`) -- a conventional tyre-coupled road simulator, not MiL. (A MiL set-up
+/// file cannot say this: its tyre is numerical; so the tyre set-up of configuration 3 is
+/// taken with `B_t` moved to the physical part: the road then commands the actuator
+/// directly.)
 #[test]
 fn tyre_with_physical_interface_has_no_loop() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = format!(
-        "name = \"tyre-physical\"\n[model]\nexample = \"custom\"\n\
-         [physical]\ndofs = [\"x_s\", \"x_u\"]\nmass = [[150.0, 0.0], [0.0, 20.0]]\n\
-         damping = [[2500.0, -2500.0], [-2500.0, 2500.0]]\n\
-         stiffness = [[1.2e5, -1.2e5], [-1.2e5, 1.2e5]]\n\
-         [interface]\nlocation = \"physical\"\nphysical_dofs = [\"x_u\"]\n\
-         stiffness = [[2.5e5]]\ndamping = [[500.0]]\n\
-         [[inputs]]\nname = \"road\"\nunit = \"m\"\ninterface_position = [1.0]\n\
-         [actuator]\ncontrol = \"position\"\n{}{TYRE_RESPONSE}",
-        actuator_lines()
-    );
-    let system = read_text(dir.path(), "tyre-physical.toml", &text).system;
+    let mut system = read_text("tyre-position.toml", &tyre_position_text()).system;
+    assert!(system.numerical.is_empty());
+    assert_eq!(system.inputs.len(), 1);
+    assert_eq!(system.inputs[0].interface_position[0], 1.0, "the road");
+    system.interface.location = ImpedanceLocation::Physical;
+    system.validate().unwrap();
     assert_eq!(system.configuration(), 1);
     for f in [1.0, 10.0, 100.0] {
         let p = system.point(f, Loop::Mil).unwrap();
@@ -1021,7 +1051,6 @@ fn tyre_with_physical_interface_has_no_loop() {
 /// value is refused with its name.
 #[test]
 fn position_servo_parameters_can_be_overridden_in_the_setup() {
-    let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(setup_path(PHYSICAL)).unwrap();
     let section = |gain: f64| {
         format!(
@@ -1030,7 +1059,7 @@ fn position_servo_parameters_can_be_overridden_in_the_setup() {
              valve_time_constant_s = 1.1e-3\nloop_gain_per_s = {gain:e}\n"
         )
     };
-    let setup = read_text(dir.path(), "fast.toml", &section(TAU * 60.0));
+    let setup = read_text("fast.toml", &section(TAU * 60.0));
     let servo = PositionServo::FILE.with_loop_gain_hz(60.0);
     let (num, den, _) = coefficients(&setup.system.actuators.tracking);
     assert_close_coefficients(num, &servo.tracking_numerator(), "P_d numerator");
@@ -1038,8 +1067,10 @@ fn position_servo_parameters_can_be_overridden_in_the_setup() {
     let (num, _, _) = coefficients(&setup.system.actuators.disturbance);
     assert_close_coefficients(num, &servo.disturbance_numerator(), "R_d numerator");
 
-    let path = dir.path().join("bad.toml");
-    std::fs::write(&path, section(-1.0)).unwrap();
-    let e = Setup::read(&path).unwrap_err().to_string();
+    let e = SetUp::from_toml(&section(-1.0), &examples())
+        .and_then(|s| s.analysis())
+        .map(|_| ())
+        .unwrap_err();
+    let e = format!("{e:#}");
     assert!(e.contains("loop_gain_per_s"), "{e}");
 }

@@ -4,7 +4,7 @@
 //! dampings and gravity spanning ten decades).
 
 use mil::check::{check, kind_of, FileKind};
-use mil::config::Config;
+use mil::setup::SetUp;
 use mil::sim::simulate;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
@@ -20,27 +20,41 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// `msd.toml` written into `dir` with its physical structure replaced by `structure` (text),
-/// `duration_s` long; returns the configuration's path.
-fn msd_with(dir: &Path, structure: &str, duration_s: f64) -> PathBuf {
-    let sim = manifest().join("examples/sim");
+/// The 2-DOF set-up (`two-dof.toml`) written into `dir` with its physical structure
+/// replaced by `structure` (text), `duration_s` long; returns the set-up's path.
+fn two_dof_with(dir: &Path, structure: &str, duration_s: f64) -> PathBuf {
+    let examples = manifest().join("examples");
     std::fs::write(dir.join("physical.toml"), structure).unwrap();
-    std::fs::copy(sim.join("msd-filter.json"), dir.join("msd-filter.json")).unwrap();
-    let text = std::fs::read_to_string(sim.join("msd.toml"))
-        .unwrap()
-        .replace("file = \"msd-physical.toml\"", "file = \"physical.toml\"")
-        .replace("duration_s = 20.0", &format!("duration_s = {duration_s}"))
+    for f in ["two-dof-filter.json", "two-dof-numerical.toml"] {
+        std::fs::copy(examples.join(f), dir.join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(examples.join("two-dof.toml")).unwrap();
+    let edited = text
         .replace(
-            "analysis = \"../analyze/two-dof-small-actuator.toml\"",
-            &format!(
-                "analysis = {:?}",
-                manifest()
-                    .join("examples/analyze/two-dof-small-actuator.toml")
-                    .display()
-                    .to_string()
-            ),
-        );
-    let path = dir.join("msd.toml");
+            "structure = \"two-dof-physical.toml\"",
+            "structure = \"physical.toml\"",
+        )
+        .replace("duration_s = 20.0", &format!("duration_s = {duration_s}"));
+    assert_ne!(edited, text);
+    let path = dir.join("two-dof.toml");
+    std::fs::write(&path, edited).unwrap();
+    path
+}
+
+/// `name` of the examples with `edits` made (each must apply), written into `dir` (with the
+/// examples' files beside it).
+fn example_with(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let examples = manifest().join("examples");
+    for entry in std::fs::read_dir(&examples).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+    }
+    let mut text = std::fs::read_to_string(examples.join(name)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{name}: {from}");
+        text = text.replace(from, to);
+    }
+    let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     path
 }
@@ -55,13 +69,7 @@ fn refused(path: &Path) -> String {
 #[test]
 fn every_shipped_file_is_recognised_and_valid() {
     let mut files = Vec::new();
-    for dir in [
-        "examples",
-        "examples/sim",
-        "examples/analyze",
-        "../diagnose/examples",
-        "../diagnose/data",
-    ] {
+    for dir in ["examples", "../diagnose/examples", "../diagnose/data"] {
         for entry in std::fs::read_dir(manifest().join(dir)).unwrap() {
             let path = entry.unwrap().path();
             let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -79,21 +87,20 @@ fn every_shipped_file_is_recognised_and_valid() {
             .or_insert(0) += 1;
     }
     // Every kind is among them.
-    assert_eq!(kinds.len(), 5, "{kinds:?}");
+    assert_eq!(kinds.len(), 4, "{kinds:?}");
 }
 
 #[test]
-fn a_tyre_stiffness_in_n_per_mm_is_refused_in_a_run_configuration() {
+fn a_tyre_stiffness_in_n_per_mm_is_refused_in_a_set_up() {
     let dir = scratch("tyre-n-per-mm");
-    let path = dir.join("tyre.toml");
-    let text = std::fs::read_to_string(manifest().join("examples/sim/tyre.toml"))
-        .unwrap()
-        .replace("stiffness_n_per_m = 2.5e5", "stiffness_n_per_m = 250.0")
-        .replace("analysis = \"../analyze/tyre.toml\"", "");
-    std::fs::write(&path, text).unwrap();
+    let path = example_with(
+        &dir,
+        "tyre.toml",
+        &[("stiffness_n_per_m = 2.5e5", "stiffness_n_per_m = 250.0")],
+    );
     let e = refused(&path);
     assert!(
-        e.contains("tyre.stiffness_n_per_m") && e.contains("N/mm"),
+        e.contains("numerical.tyre.stiffness_n_per_m") && e.contains("N/mm"),
         "{e}"
     );
 }
@@ -101,20 +108,27 @@ fn a_tyre_stiffness_in_n_per_mm_is_refused_in_a_run_configuration() {
 #[test]
 fn a_static_load_in_kg_is_refused_by_check_as_by_sim() {
     let dir = scratch("load-kg");
-    let path = dir.join("tyre.toml");
-    let text = std::fs::read_to_string(manifest().join("examples/sim/tyre.toml"))
-        .unwrap()
-        .replace("static_load_n = 1667.7", "static_load_n = 170.0")
-        .replace("safe_demand = 1667.7", "safe_demand = 170.0")
-        .replace("analysis = \"../analyze/tyre.toml\"", "");
-    std::fs::write(&path, &text).unwrap();
+    let path = example_with(
+        &dir,
+        "tyre.toml",
+        &[
+            (
+                "# static_load_n: the quarter car's weight",
+                "static_load_n = 170.0\n# the quarter car's weight",
+            ),
+            ("safe_demand = 1667.7", "safe_demand = 170.0"),
+        ],
+    );
     let e = refused(&path);
-    assert!(e.contains("tyre.static_load_n") && e.contains("kg"), "{e}");
+    assert!(
+        e.contains("numerical.tyre.static_load_n") && e.contains("kg"),
+        "{e}"
+    );
     // `mil sim` refuses it with the same message.
-    let c = Config::from_toml(&text, &dir).unwrap();
+    let c = SetUp::read(&path).unwrap().sim().unwrap();
     let sim = format!("{:#}", simulate(&c, |_| {}).err().unwrap());
     assert!(
-        sim.contains("tyre.static_load_n") && sim.contains("kg"),
+        sim.contains("numerical.tyre.static_load_n") && sim.contains("kg"),
         "{sim}"
     );
 }
@@ -123,7 +137,7 @@ fn a_static_load_in_kg_is_refused_by_check_as_by_sim() {
 fn structure_unit_mistakes_are_refused_naming_the_field() {
     let dir = scratch("structure-units");
     let physical =
-        std::fs::read_to_string(manifest().join("examples/sim/msd-physical.toml")).unwrap();
+        std::fs::read_to_string(manifest().join("examples/two-dof-physical.toml")).unwrap();
     let cases = [
         // The spring in N/mm: 2.5 m of static compression.
         (
@@ -152,10 +166,10 @@ fn structure_unit_mistakes_are_refused_naming_the_field() {
         for n in needles {
             assert!(e.contains(n), "{to}: {e}");
         }
-        // The run configuration on it is refused as well, as `mil sim` refuses it.
-        let config = msd_with(&dir, &physical.replacen(from, to, 1), 1.0);
+        // The set-up on it is refused as well, as `mil sim` refuses it.
+        let config = two_dof_with(&dir, &physical.replacen(from, to, 1), 1.0);
         let e = refused(&config);
-        assert!(e.contains("rig.structure"), "{e}");
+        assert!(e.contains("physical"), "{e}");
     }
 }
 
@@ -163,12 +177,12 @@ fn structure_unit_mistakes_are_refused_naming_the_field() {
 fn a_record_in_mm_is_refused_against_its_structure() {
     let dir = scratch("record-mm");
     let physical =
-        std::fs::read_to_string(manifest().join("examples/sim/msd-physical.toml")).unwrap();
-    let config = msd_with(&dir, &physical, 4.0);
-    let out = simulate(&Config::from_file(&config).unwrap(), |_| {}).unwrap();
+        std::fs::read_to_string(manifest().join("examples/two-dof-physical.toml")).unwrap();
+    let config = two_dof_with(&dir, &physical, 4.0);
+    let out = simulate(&SetUp::read(&config).unwrap().sim().unwrap(), |_| {}).unwrap();
     let record = dir.join("record.csv");
     out.write_csv(&record).unwrap();
-    let structure = manifest().join("examples/sim/msd-physical.toml");
+    let structure = manifest().join("examples/two-dof-physical.toml");
     check(&record, Some(&structure)).unwrap();
     // The position column in mm.
     let text = std::fs::read_to_string(&record).unwrap();
@@ -208,14 +222,14 @@ fn a_tracking_table_far_from_unity_gain_is_refused() {
         }
         t
     };
-    let setup = std::fs::read_to_string(manifest().join("examples/analyze/tyre.toml"))
-        .unwrap()
-        .replace(
-            "tracking = \"reference\"",
-            "tracking = { table = \"t.csv\" }",
-        );
-    let path = dir.join("setup.toml");
-    std::fs::write(&path, setup).unwrap();
+    let path = example_with(
+        &dir,
+        "tyre.toml",
+        &[(
+            "control = \"force\"",
+            "control = \"force\"\ntracking = { table = \"t.csv\" }",
+        )],
+    );
     std::fs::write(dir.join("t.csv"), table(1.0)).unwrap();
     assert_eq!(kind_of(&path).unwrap(), FileKind::Setup);
     check(&path, None).unwrap();
@@ -239,7 +253,7 @@ proptest! {
     ) {
         let dir = scratch("property");
         let physical =
-            std::fs::read_to_string(manifest().join("examples/sim/msd-physical.toml")).unwrap();
+            std::fs::read_to_string(manifest().join("examples/two-dof-physical.toml")).unwrap();
         let structure = physical
             .replace("mass = 5.0 ", &format!("mass = {:e} ", 10f64.powf(log_mass)))
             .replace(
@@ -251,11 +265,60 @@ proptest! {
                 "gravity_m_per_s2 = 9.81\n",
                 if gravity { "gravity_m_per_s2 = 9.81\n" } else { "" },
             );
-        let config = msd_with(&dir, &structure, 0.25);
+        let config = two_dof_with(&dir, &structure, 0.25);
         if check(&config, None).is_ok() {
-            let c = Config::from_file(&config).unwrap();
+            let c = SetUp::read(&config).unwrap().sim().unwrap();
             let run = simulate(&c, |_| {});
             prop_assert!(run.is_ok(), "accepted but not run: {:#}", run.err().unwrap());
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// Whatever tyre set-up `mil check` accepts, `mil analyze`, `mil run` and `mil sim` run:
+    /// tyre, masses, suspension, rate, cut-off, static load and filter drawn over wide
+    /// ranges (many of them implausible, which check must then refuse).
+    #[test]
+    fn any_set_up_check_accepts_runs_through_every_command(
+        log_k_t in 2.0f64..8.0,
+        c_t in 0.0f64..5000.0,
+        sprung in 1.0f64..1000.0,
+        unsprung in 1.0f64..200.0,
+        log_k_c in 3.0f64..7.0,
+        rate in prop::sample::select(vec![500.0, 2000.0, 5000.0]),
+        cutoff in 0.0f64..2000.0,
+        load_factor in prop::sample::select(vec![None, None, Some(1.0), Some(1.3), Some(1.0 / 9.81)]),
+        filter in proptest::bool::ANY,
+    ) {
+        let dir = scratch("property-set-up");
+        let weight = (sprung + unsprung) * 9.81;
+        let load = match load_factor {
+            Some(f) => format!("static_load_n = {:e}\n", weight * f),
+            None => String::new(),
+        };
+        let path = example_with(&dir, "tyre.toml", &[
+            ("stiffness_n_per_m = 2.5e5", &format!("stiffness_n_per_m = {:e}", 10f64.powf(log_k_t))),
+            ("damping_n_s_per_m = 500.0", &format!("damping_n_s_per_m = {c_t:e}")),
+            ("velocity_cutoff_hz = 500.0", &format!("velocity_cutoff_hz = {cutoff:e}\n{load}")),
+            ("sprung_mass_kg = 150.0", &format!("sprung_mass_kg = {sprung:e}")),
+            ("unsprung_mass_kg = 20.0", &format!("unsprung_mass_kg = {unsprung:e}")),
+            ("suspension = { stiffness_n_per_m = 1.2e5,", &format!("suspension = {{ stiffness_n_per_m = {:e},", 10f64.powf(log_k_c))),
+            ("sample_rate_hz = 2000.0", &format!("sample_rate_hz = {rate:e}")),
+            ("safe_demand = 1667.7", &format!("safe_demand = {weight:e}")),
+            // The shipped filter is for 2 kHz (at another rate check refuses it, rightly).
+            ("# filter = \"tyre-filter.json\"", if filter && rate == 2000.0 { "filter = \"tyre-filter.json\"" } else { "" }),
+            ("duration_s = 20.0", "duration_s = 0.25"),
+        ]);
+        if check(&path, None).is_ok() {
+            let s = SetUp::read(&path).unwrap();
+            let analysed = mil::analyze::run_analyze(&s, &dir.join("analyze"));
+            prop_assert!(analysed.is_ok(), "analyze: {:#}", analysed.err().unwrap());
+            let run = mil::run(&s.run().unwrap(), |_| {});
+            prop_assert!(run.is_ok(), "run: {:#}", run.err().unwrap());
+            let sim = simulate(&s.sim().unwrap(), |_| {});
+            prop_assert!(sim.is_ok(), "sim: {:#}", sim.err().unwrap());
         }
     }
 }
@@ -267,7 +330,7 @@ fn a_closed_stdout_pipe_ends_quietly() {
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
         .args(["sim", "--out"])
         .arg(scratch("pipe"))
-        .arg(manifest().join("examples/sim/msd.toml"))
+        .arg(manifest().join("examples/two-dof.toml"))
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()

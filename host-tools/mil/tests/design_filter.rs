@@ -6,7 +6,7 @@ use std::process::Command;
 
 fn example(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/analyze")
+        .join("examples")
         .join(name)
 }
 
@@ -85,6 +85,17 @@ fn design_filter_writes_a_filter_that_analyze_uses() {
     );
     assert!((a - d).abs() < 0.02 * d, "analyze {a} vs design {d}");
     assert_eq!(analysed["stability"], "stable");
+    // `--filter` gives the shipped set-up the same filter.
+    let flagged = run_json(&[
+        "analyze",
+        example("tyre.toml").to_str().unwrap(),
+        "--filter",
+        dir.path().join("tyre-filter.json").to_str().unwrap(),
+        "--out",
+        dir.path().join("analyze-flag").to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(flagged["gain_margin"], analysed["gain_margin"]);
     // The report says which filter and velocity estimate the figures are for.
     let elements = &analysed["mil_loop"];
     let filter = elements["filter"].as_str().unwrap();

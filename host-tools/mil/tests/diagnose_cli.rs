@@ -293,20 +293,23 @@ fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
     let tyre = std::fs::read_to_string(out.join("tyre.toml")).unwrap();
     println!("{tyre}");
     let table: toml::Table = toml::from_str(&tyre).unwrap();
-    let t = &table["tyre"];
+    let t = &table["numerical"]["tyre"];
     let num = |k: &str| t[k].as_float().unwrap();
     let weight = (quarter_car::M_S + quarter_car::M_U) * 9.81;
     assert!((num("static_load_n") - weight).abs() < 0.01 * weight);
     assert!((num("stiffness_n_per_m") - quarter_car::K_T).abs() < 0.03 * quarter_car::K_T);
     assert_eq!(t["lift_off"].as_bool(), Some(true));
-    // The tyre example's run configuration with its [tyre] table replaced.
-    let sim_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim");
-    let example = std::fs::read_to_string(sim_dir.join("tyre.toml")).unwrap();
-    let (head, rest) = example.split_once("[tyre]").unwrap();
-    let (_, tail) = rest.split_once("[limits]").unwrap();
-    let config = format!("{head}{tyre}\n[limits]{tail}");
-    let c = mil::config::Config::from_toml(&config, &sim_dir).unwrap();
-    c.validate().unwrap();
+    // The tyre example's set-up with its [numerical.tyre] table replaced.
+    let examples = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let example = std::fs::read_to_string(examples.join("tyre.toml")).unwrap();
+    let (head, rest) = example.split_once("[numerical.tyre]").unwrap();
+    let (_, tail) = rest.split_once("[physical.quarter_car]").unwrap();
+    let set_up = format!("{head}{tyre}\n[physical.quarter_car]{tail}");
+    let c = mil::setup::SetUp::from_toml(&set_up, &examples)
+        .unwrap()
+        .run()
+        .unwrap();
+    c.validate_sim().unwrap();
     assert_eq!(c.tyre.as_ref().map(|t| t.lift_off), Some(true));
 }
 

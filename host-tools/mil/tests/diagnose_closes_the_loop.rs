@@ -1,5 +1,5 @@
 //! Diagnosis closes the loop, through the `mil` binary as an engineer runs it: the 2-DOF
-//! example's physical part (`examples/sim/msd-physical.toml`, a structure file) carries a
+//! example's physical part (`examples/two-dof-physical.toml`, a structure file) carries a
 //! hidden effect on the simulated rig; `mil sim` records it; `mil diagnose` with the linear
 //! structure names the effect from that record (measurement noise added here) and writes
 //! `updated.toml`; `mil sim` with `updated.toml` as the physical part then reproduces the
@@ -39,34 +39,25 @@ fn mil(args: &[&str]) -> String {
     text
 }
 
-/// `msd.toml` in `dir` with the physical part `structure` (a file name in `dir`) and road
-/// seed `seed`, 12 s long; returns its path.
+/// The 2-DOF set-up (`two-dof.toml`) in `dir` with the physical part `structure` (a file
+/// name in `dir`) and road seed `seed`, 12 s long; returns its path.
 fn sim_config(dir: &Path, name: &str, structure: &str, seed: u64) -> PathBuf {
-    let sim = examples().join("sim");
-    let mut text = std::fs::read_to_string(sim.join("msd.toml")).unwrap();
+    let shipped = |f: &str| format!("{:?}", examples().join(f).display().to_string());
+    let mut text = std::fs::read_to_string(examples().join("two-dof.toml")).unwrap();
     for (from, to) in [
         (
-            "file = \"msd-physical.toml\"",
-            format!("file = \"{structure}\""),
+            "structure = \"two-dof-physical.toml\"",
+            format!("structure = \"{structure}\""),
+        ),
+        (
+            "structure = \"two-dof-numerical.toml\"",
+            format!("structure = {}", shipped("two-dof-numerical.toml")),
         ),
         ("seed = 1", format!("seed = {seed}")),
         ("duration_s = 20.0", "duration_s = 12.0".to_string()),
         (
-            "filter = \"msd-filter.json\"",
-            format!(
-                "filter = {:?}",
-                sim.join("msd-filter.json").display().to_string()
-            ),
-        ),
-        (
-            "analysis = \"../analyze/two-dof-small-actuator.toml\"",
-            format!(
-                "analysis = {:?}",
-                examples()
-                    .join("analyze/two-dof-small-actuator.toml")
-                    .display()
-                    .to_string()
-            ),
+            "filter = \"two-dof-filter.json\"",
+            format!("filter = {}", shipped("two-dof-filter.json")),
         ),
     ] {
         assert!(text.contains(from), "{from}");
@@ -138,7 +129,7 @@ fn noisy(path: &Path, fraction: f64, seed: u64) -> PathBuf {
 /// linear run) on the physical element, road seed `seed`.
 fn closes_the_loop(effect: &str, params: impl Fn(f64, f64) -> String, seed: u64) {
     let dir = scratch(effect);
-    let linear = std::fs::read_to_string(examples().join("sim/msd-physical.toml")).unwrap();
+    let linear = std::fs::read_to_string(examples().join("two-dof-physical.toml")).unwrap();
     std::fs::write(dir.join("linear.toml"), &linear).unwrap();
     let config = sim_config(&dir, "linear-sim.toml", "linear.toml", seed);
     let b = read_csv(&sim(&config, &dir.join("linear-run")));

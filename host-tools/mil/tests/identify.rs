@@ -4,6 +4,7 @@
 
 use mil::analyze::run_analyze;
 use mil::identify::{run_identify, IdentifyOptions};
+use mil::setup::SetUp;
 use mil_analysis::ServoHydraulicActuator;
 use mil_discretise::{simulate_cascade, zoh_tf, TransferFunction};
 use mil_identify::{band_limited_noise, log_sine_sweep};
@@ -66,34 +67,39 @@ fn identified_table_matches_the_reference_actuator_and_feeds_the_analysis() {
     assert!(worst.0 < 0.3 && worst.1 < 2.0, "worst {worst:?}");
 
     // The analysis with the measured table instead of the model: same gain margin within 0.01.
-    let setup_text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/tyre.toml"),
-    )
-    .unwrap()
-    .replace(
-        "tracking = \"reference\"",
-        "tracking = { table = \"tracking.csv\" }",
-    )
-    .replace("f_min_hz = 0.5", "f_min_hz = 1.5")
-    .replace("[analysis]", "[analysis]\nf_max_hz = 139.0");
+    let tyre =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/tyre.toml"))
+            .unwrap();
+    let setup_text = tyre
+        .replace(
+            "control = \"force\"",
+            "control = \"force\"\ntracking = { table = \"tracking.csv\" }",
+        )
+        .replace("f_min_hz = 0.5", "f_min_hz = 1.5")
+        .replace("[analysis]", "[analysis]\nf_max_hz = 139.0");
+    for edit in ["control = \"force\"", "f_min_hz = 0.5", "[analysis]"] {
+        assert_eq!(tyre.matches(edit).count(), 1, "tyre.toml: {edit}");
+    }
     let setup = dir.path().join("tyre-measured.toml");
     std::fs::write(&setup, setup_text).unwrap();
-    let measured = run_analyze(&setup, &dir.path().join("out")).unwrap().report;
-    // The identified table contains the simulation's zero-order hold (half a sample of
-    // delay); the model run gets the same extra delay so that the two describe one system.
-    let model_text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/tyre.toml"),
-    )
-    .unwrap()
-    .replace(
-        "disturbance = \"reference\"",
-        "disturbance = \"reference\"\nloop_delay_s = 0.001",
-    );
-    let model_setup = dir.path().join("tyre-model.toml");
-    std::fs::write(&model_setup, model_text).unwrap();
-    let model = run_analyze(&model_setup, &dir.path().join("out-model"))
+    let measured = run_analyze(&SetUp::read(&setup).unwrap(), &dir.path().join("out"))
         .unwrap()
         .report;
+    // The identified table contains the simulation's zero-order hold (half a sample of
+    // delay); the model run gets the same extra delay so that the two describe one system.
+    let model_text = tyre.replace(
+        "sample_rate_hz = 2000.0",
+        "sample_rate_hz = 2000.0\nloop_delay_s = 0.001",
+    );
+    assert_ne!(model_text, tyre);
+    let model_setup = dir.path().join("tyre-model.toml");
+    std::fs::write(&model_setup, model_text).unwrap();
+    let model = run_analyze(
+        &SetUp::read(&model_setup).unwrap(),
+        &dir.path().join("out-model"),
+    )
+    .unwrap()
+    .report;
     let (a, b) = (
         measured.mil.gain_margin.unwrap(),
         model.mil.gain_margin.unwrap(),

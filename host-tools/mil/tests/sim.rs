@@ -1,17 +1,18 @@
-//! `mil sim`: the shipped tyre configurations on the simulated rig, their figures against
-//! the analysis and against each other, the CLI's outputs, and refused configurations.
+//! `mil sim`: the shipped tyre and aero set-ups on the simulated rig, their figures against
+//! the set-up's analysis and against each other, the CLI's outputs, and refused set-ups.
 
 use mil::config::Config;
+use mil::setup::SetUp;
 use mil::sim::{simulate, SimOutput};
 use std::path::{Path, PathBuf};
 
 fn examples() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples")
 }
 
-/// A shipped configuration with its run shortened to `duration_s` and any further
-/// replacements, resolved against the examples folder.
-fn config(name: &str, duration_s: f64, replace: &[(&str, &str)]) -> Config {
+/// The text of a shipped set-up with its run shortened to `duration_s` and any further
+/// replacements (each must be present).
+fn text(name: &str, duration_s: f64, replace: &[(&str, &str)]) -> String {
     let mut text = std::fs::read_to_string(examples().join(name)).unwrap();
     let original = "duration_s = 20.0";
     assert!(text.contains(original));
@@ -20,11 +21,22 @@ fn config(name: &str, duration_s: f64, replace: &[(&str, &str)]) -> Config {
         assert!(text.contains(from), "{from}");
         text = text.replace(from, to);
     }
-    Config::from_toml(&text, &examples()).unwrap()
+    text
 }
 
-fn run(name: &str, duration_s: f64) -> SimOutput {
-    simulate(&config(name, duration_s, &[]), |_| {}).unwrap()
+/// A shipped set-up, shortened and edited as [`text`], with the command filter `filter`
+/// (none: the set-up's own, here none), resolved against the examples folder: what `mil sim`
+/// runs, the set-up's analysis attached.
+fn config(name: &str, duration_s: f64, filter: Option<&str>, replace: &[(&str, &str)]) -> Config {
+    let mut setup = SetUp::from_toml(&text(name, duration_s, replace), &examples()).unwrap();
+    if let Some(f) = filter {
+        setup.controller.filter = Some(f.into());
+    }
+    setup.sim().unwrap()
+}
+
+fn run(name: &str, duration_s: f64, filter: Option<&str>) -> SimOutput {
+    simulate(&config(name, duration_s, filter, &[]), |_| {}).unwrap()
 }
 
 /// Without a command filter the tyre rig has the paper's lightly damped 17 Hz MiL resonance
@@ -36,7 +48,7 @@ fn run(name: &str, duration_s: f64) -> SimOutput {
 /// periodic excitation).
 #[test]
 fn tyre_example_agrees_with_the_analysis() {
-    let out = run("tyre.toml", 12.0);
+    let out = run("tyre.toml", 12.0, None);
     let s = &out.summary;
     eprintln!("{}", out.table());
     assert_eq!((s.channels, s.samples, s.filter_sections), (4, 24_000, 0));
@@ -73,8 +85,8 @@ fn tyre_example_agrees_with_the_analysis() {
 /// 6 dB away. The analysis, given the same filter, still predicts the rig (1 dB / 8°).
 #[test]
 fn command_filter_brings_the_rig_closer_to_the_vehicle() {
-    let bare = run("tyre.toml", 12.0);
-    let filtered = run("tyre-filter.toml", 12.0);
+    let bare = run("tyre.toml", 12.0, None);
+    let filtered = run("tyre.toml", 12.0, Some("tyre-filter.json"));
     eprintln!("{}", filtered.table());
     assert_eq!(filtered.summary.filter_sections, 2);
     let (b, f) = (&bare.summary.channel[0], &filtered.summary.channel[0]);
@@ -101,8 +113,8 @@ fn command_filter_brings_the_rig_closer_to_the_vehicle() {
 /// halves the rear axle's in-band position error and brings the heave response closer.
 #[test]
 fn aero_example_agrees_with_the_analysis_and_the_filter_helps() {
-    let bare = run("aero.toml", 12.0);
-    let filtered = run("aero-filter.toml", 12.0);
+    let bare = run("aero.toml", 12.0, None);
+    let filtered = run("aero.toml", 12.0, Some("aero-filter.json"));
     eprintln!("{}{}", bare.table(), filtered.table());
     for out in [&bare, &filtered] {
         let s = &out.summary;
@@ -151,28 +163,20 @@ fn csv_header_and_rows(path: &Path) -> (Vec<String>, usize) {
 }
 
 /// The CLI writes the CSV (time first, SI units, one row per sample), the plots, and with
-/// `--json` one JSON object with the summary numbers.
+/// `--json` one JSON object with the summary numbers; `--filter` gives the command filter.
 #[test]
 fn cli_writes_histories_plots_and_json() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(examples().join("tyre-filter.toml"))
-        .unwrap()
-        .replace("duration_s = 20.0", "duration_s = 4.0")
-        .replace(
-            "\"tyre-filter.json\"",
-            &format!("{:?}", examples().join("tyre-filter.json")),
-        )
-        .replace(
-            "\"../analyze/tyre.toml\"",
-            &format!("{:?}", examples().join("../analyze/tyre.toml")),
-        );
     let cfg = dir.path().join("short.toml");
-    std::fs::write(&cfg, text).unwrap();
+    std::fs::write(&cfg, text("tyre.toml", 4.0, &[])).unwrap();
+    let filter = examples().join("tyre-filter.json");
     let out = dir.path().join("out");
     let run = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
         .args([
             "sim",
             cfg.to_str().unwrap(),
+            "--filter",
+            filter.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
             "--json",
@@ -216,7 +220,14 @@ fn cli_writes_histories_plots_and_json() {
     }
     // Without --json: the table and where the files are.
     let run = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args(["sim", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "sim",
+            cfg.to_str().unwrap(),
+            "--filter",
+            filter.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&run.stdout);
@@ -226,21 +237,35 @@ fn cli_writes_histories_plots_and_json() {
     );
 }
 
-/// Configurations the rig cannot run are refused with the reason, before running.
+/// Set-ups the rig cannot run are refused with the reason, before running.
 #[test]
 fn bad_rig_configurations_are_refused() {
     let error = |replace: &[(&str, &str)]| {
-        let c = config("tyre-filter.toml", 1.0, replace);
-        match simulate(&c, |_| {}) {
+        let edited = text("tyre.toml", 1.0, replace);
+        let run = SetUp::from_toml(&edited, &examples()).and_then(|mut s| {
+            s.controller.filter = Some("tyre-filter.json".into());
+            simulate(&s.sim()?, |_| {})
+        });
+        match run {
             Ok(_) => panic!("accepted {replace:?}"),
             Err(e) => format!("{e:#}"),
         }
     };
-    let e = error(&[("static_load_n = 1667.7", "static_load_n = 1500.0")]);
+    let load = "# static_load_n: the quarter car's weight";
+    let e = error(&[(load, &format!("static_load_n = 1500.0\n{load}"))]);
     assert!(e.contains("weighs 1667.7 N"), "{e}");
-    let e = error(&[("internal_step_s = 1e-4", "internal_step_s = 1e-3")]);
-    assert!(e.contains("rig.internal_step_s"), "{e}");
-    let e = error(&[("sample_rate_hz = 2000.0", "sample_rate_hz = 4000.0")]);
+    let e = error(&[(
+        "\n[sensors]",
+        "\n[simulation]\ninternal_step_s = 1e-3\n\n[sensors]",
+    )]);
+    assert!(e.contains("simulation.internal_step_s"), "{e}");
+    let rate = [("sample_rate_hz = 2000.0", "sample_rate_hz = 4000.0")];
+    let e = error(&rate);
+    assert!(e.contains("tyre-filter.json is for 2000 Hz"), "{e}");
+    // The analysis finds it first; the run refuses it on its own too.
+    let mut s = SetUp::from_toml(&text("tyre.toml", 1.0, &rate), &examples()).unwrap();
+    s.controller.filter = Some("tyre-filter.json".into());
+    let e = format!("{:#}", simulate(&s.run().unwrap(), |_| {}).err().unwrap());
     assert!(e.contains("designed for 2000 Hz"), "{e}");
     let e = error(&[("f_max_hz = 30.0", "f_max_hz = 1500.0")]);
     assert!(e.contains("Nyquist"), "{e}");
@@ -250,8 +275,13 @@ fn bad_rig_configurations_are_refused() {
     )]);
     assert!(e.contains("noise_rms"), "{e}");
     // An unknown key is a parse error, not a silent default.
-    let text = std::fs::read_to_string(examples().join("tyre.toml"))
-        .unwrap()
-        .replace("internal_step_s = 1e-4", "internal_stepsize_s = 1e-4");
-    assert!(Config::from_toml(&text, &examples()).is_err());
+    let typo = text(
+        "tyre.toml",
+        1.0,
+        &[(
+            "\n[sensors]",
+            "\n[simulation]\ninternal_stepsize_s = 1e-4\n\n[sensors]",
+        )],
+    );
+    assert!(SetUp::from_toml(&typo, &examples()).is_err());
 }

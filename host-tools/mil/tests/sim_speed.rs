@@ -1,9 +1,10 @@
-//! `mil sim` and `mil run` with a vehicle speed that varies over the run (`[speed]`): the
-//! board and the emulated aero model follow the same speed, the down force scales with `v²`
-//! in both, the speed is in the CSV, the analysis comparison is skipped with the reason, and
-//! bad speed inputs are refused with clear errors.
+//! `mil sim` and `mil run` with a vehicle speed that varies over the run (`[excitation]
+//! speed`): the board and the emulated aero model follow the same speed, the down force
+//! scales with `v²` in both, the speed is in the CSV, the analysis comparison is skipped
+//! with the reason, and bad speed inputs are refused with clear errors.
 
 use mil::config::Config;
+use mil::setup::SetUp;
 use mil::sim::simulate;
 use mil_analysis::examples::AeroExample;
 use mil_rig::rigs::IdealAero;
@@ -11,28 +12,23 @@ use model_core::AeroParams;
 use std::path::{Path, PathBuf};
 
 fn examples() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples")
 }
 
-/// The shipped aero configuration, `duration_s` long, the constant speed replaced by
-/// `speed` (a `[speed]` table, or "" for none), further replacements applied; relative paths
-/// resolve against `base`.
-fn aero_config(duration_s: f64, speed: &str, replace: &[(&str, &str)], base: &Path) -> Config {
+/// The constant speed of the shipped aero set-up, a line of its `[excitation]`.
+const CONSTANT_SPEED: &str =
+    "speed_m_per_s = 50.0             # or speed = { kind = \"ramp\", ... } / { kind = \"csv\", ... }\n";
+
+/// The shipped aero set-up's text, `duration_s` long, the constant speed replaced by
+/// `speed` (an `[excitation.speed]` table, or "" for none), further replacements applied.
+fn aero_text(duration_s: f64, speed: &str, replace: &[(&str, &str)]) -> String {
     let mut text = std::fs::read_to_string(examples().join("aero.toml")).unwrap();
     for (from, to) in [
         (
             "duration_s = 20.0",
             format!("duration_s = {duration_s}").as_str(),
         ),
-        (
-            "speed_m_per_s = 50.0          # the analysis holds at the reference speed\n",
-            "",
-        ),
-        ("\n[limits]", format!("\n{speed}\n[limits]").as_str()),
-        (
-            "analysis = \"../analyze/aero.toml\"",
-            format!("analysis = {:?}", examples().join("../analyze/aero.toml")).as_str(),
-        ),
+        (CONSTANT_SPEED, speed),
     ] {
         assert!(text.contains(from), "{from}");
         text = text.replacen(from, to, 1);
@@ -41,7 +37,16 @@ fn aero_config(duration_s: f64, speed: &str, replace: &[(&str, &str)], base: &Pa
         assert!(text.contains(from), "{from}");
         text = text.replace(from, to);
     }
-    Config::from_toml(&text, base).unwrap()
+    text
+}
+
+/// [`aero_text`] as `mil sim` runs it (the set-up's analysis attached); relative paths
+/// resolve against `base`.
+fn aero_config(duration_s: f64, speed: &str, replace: &[(&str, &str)], base: &Path) -> Config {
+    SetUp::from_toml(&aero_text(duration_s, speed, replace), base)
+        .unwrap()
+        .sim()
+        .unwrap()
 }
 
 /// The static equilibrium of the paper's half car after a speed change from `from` to `to`
@@ -69,7 +74,7 @@ fn settled_forces(from: f64, to: f64) -> [f64; 2] {
 fn a_speed_step_scales_the_down_force_with_v_squared_in_mil_and_emulated() {
     let config = aero_config(
         5.0,
-        "[speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 50.0\nat_s = 2.0\n",
+        "[excitation.speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 50.0\nat_s = 2.0\n",
         &[("rms_m = 0.001", "rms_m = 0.0")],
         &examples(),
     );
@@ -142,7 +147,7 @@ fn a_recorded_speed_is_interpolated_and_written_to_the_csv() {
     std::fs::write(dir.path().join("speed.csv"), log).unwrap();
     let config = aero_config(
         3.0,
-        "[speed]\nkind = \"csv\"\npath = \"speed.csv\"\ncolumn = \"gps_speed_m_per_s\"\n",
+        "[excitation.speed]\nkind = \"csv\"\npath = \"speed.csv\"\ncolumn = \"gps_speed_m_per_s\"\n",
         &[],
         dir.path(),
     );
@@ -180,7 +185,7 @@ fn a_recorded_speed_is_interpolated_and_written_to_the_csv() {
     // Constant, but not the reference speed: skipped with the reason, not an error.
     let constant = aero_config(
         3.0,
-        "[speed]\nkind = \"constant\"\nspeed_m_per_s = 40.0\n",
+        "[excitation.speed]\nkind = \"constant\"\nspeed_m_per_s = 40.0\n",
         &[],
         &examples(),
     );
@@ -196,17 +201,12 @@ fn a_recorded_speed_is_interpolated_and_written_to_the_csv() {
 #[test]
 fn mil_run_follows_the_speed() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/aero.toml"),
-    )
-    .unwrap()
-    .replace("duration_s = 20.0", "duration_s = 2.0")
-    .replace("rms_m = 0.002", "rms_m = 0.0")
-    .replace(
-        "\nspeed_m_per_s = 50.0\n",
-        "\n\n[speed]\nkind = \"ramp\"\nfrom_m_per_s = 30.0\nto_m_per_s = 60.0\nat_s = 0.5\nduration_s = 1.0\n",
+    let text = aero_text(
+        2.0,
+        "[excitation.speed]\nkind = \"ramp\"\nfrom_m_per_s = 30.0\nto_m_per_s = 60.0\nat_s = 0.5\nduration_s = 1.0\n",
+        &[("rms_m = 0.001", "rms_m = 0.0")],
     );
-    let config = Config::from_toml(&text, dir.path()).unwrap();
+    let config = SetUp::from_toml(&text, dir.path()).unwrap().run().unwrap();
     let out = mil::run(&config, |_| {}).unwrap();
     let speed = out.speed.as_ref().unwrap();
     assert_eq!((speed[0], speed[2000], speed[3999]), (30.0, 45.0, 60.0));
@@ -237,7 +237,7 @@ fn bad_speed_inputs_are_refused_with_clear_errors() {
             Err(e) => format!("{e:#}"),
         }
     };
-    let csv = "[speed]\nkind = \"csv\"\npath = \"speed.csv\"\n";
+    let csv = "[excitation.speed]\nkind = \"csv\"\npath = \"speed.csv\"\n";
     let cases = [
         (
             "time,speed\n0,50\n0.5,50\n0.5,51\n1,50\n",
@@ -280,63 +280,62 @@ fn bad_speed_inputs_are_refused_with_clear_errors() {
     }
     let e = error(
         "time,speed\n0,50\n1,50\n",
-        "[speed]\nkind = \"csv\"\npath = \"speed.csv\"\ncolumn = \"v\"\n",
+        "[excitation.speed]\nkind = \"csv\"\npath = \"speed.csv\"\ncolumn = \"v\"\n",
     );
     assert!(e.contains("no column \"v\""), "{e}");
-    let e = error("", "[speed]\nkind = \"csv\"\npath = \"missing.csv\"\n");
+    let e = error(
+        "",
+        "[excitation.speed]\nkind = \"csv\"\npath = \"missing.csv\"\n",
+    );
     assert!(e.contains("cannot read speed profile"), "{e}");
     let e = error(
         "",
-        "[speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 200.0\nat_s = 1.0\n",
+        "[excitation.speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 200.0\nat_s = 1.0\n",
     );
     assert!(
-        e.contains("speed.to_m_per_s must be in [0, 150] m/s"),
+        e.contains("excitation.speed.to_m_per_s must be in [0, 150] m/s"),
         "{e}"
     );
     let e = error(
         "",
-        "[speed]\nkind = \"ramp\"\nfrom_m_per_s = 40.0\nto_m_per_s = 50.0\nat_s = 1.0\nduration_s = 0.0\n",
+        "[excitation.speed]\nkind = \"ramp\"\nfrom_m_per_s = 40.0\nto_m_per_s = 50.0\nat_s = 1.0\nduration_s = 0.0\n",
     );
-    assert!(e.contains("speed.duration_s must be > 0"), "{e}");
+    assert!(e.contains("excitation.speed.duration_s must be > 0"), "{e}");
     // The speed given twice, or not at all.
     let e = error("", "");
     assert!(e.contains("needs a speed"), "{e}");
     let both = aero_config(
         1.0,
-        "[speed]\nkind = \"constant\"\nspeed_m_per_s = 40.0\n",
+        "[excitation.speed]\nkind = \"constant\"\nspeed_m_per_s = 40.0\n",
         &[(
-            "rear_axle_m = 1.4",
-            "rear_axle_m = 1.4\nspeed_m_per_s = 50.0",
+            "road = { kind = \"pink\"",
+            "speed_m_per_s = 50.0\nroad = { kind = \"pink\"",
         )],
         &examples(),
     );
     let e = format!("{:#}", both.validate().unwrap_err());
     assert!(e.contains("given twice"), "{e}");
-    // Unknown keys are errors, as everywhere in the configuration.
-    let text = std::fs::read_to_string(examples().join("aero.toml"))
-        .unwrap()
-        .replace(
-            "speed_m_per_s = 50.0          # the analysis holds at the reference speed\n",
-            "",
-        )
-        .replace(
-            "\n[limits]",
-            "\n[speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 50.0\nat = 1.0\n\n[limits]",
-        );
-    assert!(Config::from_toml(&text, &examples()).is_err());
+    // Unknown keys are errors, as everywhere in the set-up.
+    let text = aero_text(
+        1.0,
+        "[excitation.speed]\nkind = \"step\"\nfrom_m_per_s = 40.0\nto_m_per_s = 50.0\nat = 1.0\n",
+        &[],
+    );
+    assert!(SetUp::from_toml(&text, &examples()).is_err());
     // A speed for the tyre model is a mistake, not ignored.
-    let tyre = std::fs::read_to_string(examples().join("tyre.toml"))
-        .unwrap()
-        .replace(
-            "\n[limits]",
-            "\n[speed]\nkind = \"constant\"\nspeed_m_per_s = 40.0\n\n[limits]",
-        );
+    let tyre = std::fs::read_to_string(examples().join("tyre.toml")).unwrap();
+    let road = "road = { kind = \"pink\"";
+    assert!(tyre.contains(road));
+    let tyre = tyre.replace(
+        road,
+        &format!("speed = {{ kind = \"constant\", speed_m_per_s = 40.0 }}\n{road}"),
+    );
     let e = format!(
         "{:#}",
-        Config::from_toml(&tyre, &examples())
+        SetUp::from_toml(&tyre, &examples())
             .unwrap()
-            .validate()
+            .run()
             .unwrap_err()
     );
-    assert!(e.contains("[speed] is for the aero model"), "{e}");
+    assert!(e.contains("excitation.speed is for the aero model"), "{e}");
 }

@@ -1,21 +1,22 @@
-//! `mil sim` with a general mass-spring-damper specimen: the shipped 2-DOF configuration
-//! (`examples/sim/msd.toml`, model-core's substructure on the board, the physical mass on a
-//! force-controlled actuator) against the analysis and against the emulated system, the
-//! same rig without its command filter, `mil run` and `mil check` on it, and refused
-//! configurations.
+//! `mil sim` with a general mass-spring-damper specimen: the shipped 2-DOF set-up
+//! (`examples/two-dof.toml`, model-core's substructure on the board, the physical mass on a
+//! force-controlled actuator) against the set-up's analysis and against the emulated system,
+//! the same rig without its command filter, `mil run` and `mil check` on it, and refused
+//! set-ups.
 
 use mil::config::Config;
+use mil::setup::SetUp;
 use mil::sim::{simulate, SimOutput};
-use mil_analysis::setup::Setup;
 use std::path::PathBuf;
 
 fn examples() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/sim")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples")
 }
 
-/// `msd.toml` with its run shortened to `duration_s` and the replacements applied.
-fn config(duration_s: f64, replace: &[(&str, &str)]) -> Config {
-    let mut text = std::fs::read_to_string(examples().join("msd.toml")).unwrap();
+/// `two-dof.toml`'s text with its run shortened to `duration_s` and the replacements applied
+/// (each must be present).
+fn text(duration_s: f64, replace: &[(&str, &str)]) -> String {
+    let mut text = std::fs::read_to_string(examples().join("two-dof.toml")).unwrap();
     let original = "duration_s = 20.0";
     assert!(text.contains(original));
     text = text.replace(original, &format!("duration_s = {duration_s}"));
@@ -23,7 +24,15 @@ fn config(duration_s: f64, replace: &[(&str, &str)]) -> Config {
         assert!(text.contains(from), "{from}");
         text = text.replacen(from, to, 1);
     }
-    Config::from_toml(&text, &examples()).unwrap()
+    text
+}
+
+/// [`text`] as `mil sim` runs it: the set-up's analysis attached.
+fn config(duration_s: f64, replace: &[(&str, &str)]) -> Config {
+    SetUp::from_toml(&text(duration_s, replace), &examples())
+        .unwrap()
+        .sim()
+        .unwrap()
 }
 
 fn run(duration_s: f64, replace: &[(&str, &str)]) -> SimOutput {
@@ -38,9 +47,10 @@ fn run(duration_s: f64, replace: &[(&str, &str)]) -> SimOutput {
 #[test]
 fn msd_example_agrees_with_the_analysis() {
     let c = config(12.0, &[]);
-    // The rig's actuator is the one the analysis set-up describes.
-    let setup = Setup::read(&examples().join(c.compare.analysis.as_ref().unwrap())).unwrap();
-    assert_eq!(c.rig.actuator, Some(setup.reference_actuator));
+    // The rig's actuator is the one the analysis describes.
+    let analysis = c.analysis.as_ref().unwrap();
+    assert_eq!(c.rig.actuator, Some(analysis.reference_actuator));
+    assert_eq!(c.analysis_inputs, ["z_n"]);
     let out = simulate(&c, |_| {}).unwrap();
     let s = &out.summary;
     eprintln!("{}", out.table());
@@ -66,7 +76,7 @@ fn msd_example_agrees_with_the_analysis() {
 /// near that frequency, several times the emulated system's motion.
 #[test]
 fn without_the_filter_the_msd_rig_oscillates_as_the_analysis_predicts() {
-    let out = run(6.0, &[("filter = \"msd-filter.json\"", "")]);
+    let out = run(6.0, &[("filter = \"two-dof-filter.json\"", "")]);
     let s = &out.summary;
     eprintln!("{}", out.table());
     assert_eq!(s.filter_sections, 0);
@@ -87,12 +97,16 @@ fn without_the_filter_the_msd_rig_oscillates_as_the_analysis_predicts() {
 #[test]
 fn check_and_open_loop_run_accept_the_example() {
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args(["check", examples().join("msd.toml").to_str().unwrap()])
+        .args(["check", examples().join("two-dof.toml").to_str().unwrap()])
         .output()
         .unwrap();
     assert!(status.status.success(), "{status:?}");
     assert!(String::from_utf8_lossy(&status.stdout).contains("valid"));
-    let out = mil::run(&config(4.0, &[]), |_| {}).unwrap();
+    let c = SetUp::from_toml(&text(4.0, &[]), &examples())
+        .unwrap()
+        .run()
+        .unwrap();
+    let out = mil::run(&c, |_| {}).unwrap();
     assert_eq!((out.summary.channels, out.summary.fault_at_s), (1, None));
     assert!(out.speed.is_none());
     // Static check at low frequency: held still, m_n on k_n + k_i from its road gives
@@ -104,33 +118,35 @@ fn check_and_open_loop_run_accept_the_example() {
     assert!((6000.0..12_000.0).contains(&gain), "{gain}");
 }
 
-/// Configurations the rig cannot run are refused with the reason, before running.
+/// Set-ups the rig cannot run are refused with the reason, before running.
 #[test]
 fn bad_substructure_configurations_are_refused() {
-    // The first error: parsing (unknown keys), then validation and the rig's checks.
+    // The first error: parsing (unknown keys), then building the run and the analysis,
+    // validation and the rig's checks.
     let error = |replace: &[(&str, &str)]| -> String {
-        let mut text = std::fs::read_to_string(examples().join("msd.toml"))
-            .unwrap()
-            .replace("duration_s = 20.0", "duration_s = 1.0");
-        for (from, to) in replace {
-            assert!(text.contains(from), "{from}");
-            text = text.replacen(from, to, 1);
-        }
-        let parsed = Config::from_toml(&text, &examples()).and_then(|c| simulate(&c, |_| {}));
+        let parsed = SetUp::from_toml(&text(1.0, replace), &examples())
+            .and_then(|s| s.sim())
+            .and_then(|c| simulate(&c, |_| {}));
         match parsed {
             Ok(_) => panic!("accepted {replace:?}"),
             Err(e) => format!("{e:#}"),
         }
     };
-    // Structure files the rig cannot run, next to the configuration.
+    // Structure files the rig or the board cannot run, next to the set-up.
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bad-substructure");
     std::fs::create_dir_all(&dir).unwrap();
-    let physical = std::fs::read_to_string(examples().join("msd-physical.toml")).unwrap();
+    let write = |name: &str, contents: String| -> String {
+        let path = dir.join(name);
+        std::fs::write(&path, contents).unwrap();
+        format!("{:?}", path.display().to_string())
+    };
+    let physical = std::fs::read_to_string(examples().join("two-dof-physical.toml")).unwrap();
     let bad_structure = |name: &str, from: &str, to: &str| -> String {
         assert!(physical.contains(from), "{from}");
-        let path = dir.join(name);
-        std::fs::write(&path, physical.replacen(from, to, 1)).unwrap();
-        format!("file = {:?}", path.display().to_string())
+        format!(
+            "structure = {}",
+            write(name, physical.replacen(from, to, 1))
+        )
     };
     // Its spring holding a preload that does not carry the mass (40 N of 49.05 N).
     let unbalanced = bad_structure(
@@ -141,18 +157,27 @@ fn bad_substructure_configurations_are_refused() {
     // No gravity, and a preload: not at rest with zero actuator force.
     let weightless = bad_structure("weightless.toml", "gravity_m_per_s2 = 9.81\n", "");
     let weightless_path = dir.join("weightless.toml");
-    let text = std::fs::read_to_string(&weightless_path).unwrap().replace(
+    let edited = std::fs::read_to_string(&weightless_path).unwrap().replace(
         "damping_n_s_per_m = 10.0",
         "damping_n_s_per_m = 10.0\npreload_n = 49.05",
     );
-    std::fs::write(&weightless_path, text).unwrap();
+    std::fs::write(&weightless_path, edited).unwrap();
     // The mass on a post (a displacement input) instead of the bed.
     let on_post = bad_structure("post.toml", "lower = \"ground\"", "lower = \"post\"");
     let post_path = dir.join("post.toml");
-    let text = std::fs::read_to_string(&post_path).unwrap()
+    let edited = std::fs::read_to_string(&post_path).unwrap()
         + "\n[[input]]\nname = \"post\"\nkind = \"displacement\"\ncolumn = \"road_0\"\n";
-    std::fs::write(&post_path, text).unwrap();
-    let file = "file = \"msd-physical.toml\"";
+    std::fs::write(&post_path, edited).unwrap();
+    // A numerical mass below zero.
+    let numerical = std::fs::read_to_string(examples().join("two-dof-numerical.toml")).unwrap();
+    let from = "mass = 10.0";
+    assert!(numerical.contains(from));
+    let negative = format!(
+        "structure = {}",
+        write("negative.toml", numerical.replacen(from, "mass = -10.0", 1))
+    );
+    let file = "structure = \"two-dof-physical.toml\"";
+    let numerical_file = "structure = \"two-dof-numerical.toml\"";
     let cases: &[(&[(&str, &str)], &str)] = &[
         (
             &[(file, &unbalanced)],
@@ -161,47 +186,47 @@ fn bad_substructure_configurations_are_refused() {
         (&[(file, &weightless)], "not at rest"),
         (
             &[(file, &on_post)],
-            "rig.structure.roads: say which run road the structure's input \"post\" follows",
+            "physical.roads: say which run road the structure's input \"post\" follows",
         ),
         (
             &[
                 (file, &on_post),
                 (
-                    "attach = [\"x_p\"]",
-                    "attach = [\"x_p\"]\nroads = { post = \"road_1\" }",
+                    "\n[[interface.channels]]",
+                    "roads = { post = \"road_1\" }\n\n[[interface.channels]]",
                 ),
             ],
-            "post = \"road_1\": name the run's road input it follows, road_0 to road_0",
+            "post = \"road_1\": name the run's road it follows, road_0 to road_0",
+        ),
+        // The analysis finds it first; the rig's own check is below.
+        (
+            &[("physical = \"x_p\"", "physical = \"x_q\"")],
+            "no DOF \"x_q\"",
         ),
         (
-            &[("attach = [\"x_p\"]", "attach = [\"x_q\"]")],
-            "attachment \"x_q\" is no DOF or point",
-        ),
-        (
-            &[("attach = [\"x_p\"]", "attached = [\"x_p\"]")],
+            &[(
+                "physical = \"x_p\"",
+                "physical = \"x_p\"\nattached = \"x_p\"",
+            )],
             "unknown field `attached`",
         ),
-        (&[(file, "file = \"missing.toml\"")], "rig.structure.file"),
-        (&[("dof = \"x_n\"", "dof = \"x_m\"")], "no DOF \"x_m\""),
+        // The analysis finds it first; the rig's own check is below.
         (
-            &[("mass = [[10.0]]", "mass = [[10.0, 0.0]]")],
-            "substructure.mass must be 1 x 1",
+            &[(file, "structure = \"missing.toml\"")],
+            "physical.structure: ",
         ),
+        // The analysis finds it first; the board's own check is below.
         (
-            &[("mass = [[10.0]]", "mass = [[-10.0]]")],
-            "SubstructureMass",
+            &[("numerical = \"x_n\"", "numerical = \"x_m\"")],
+            "no DOF \"x_m\"",
         ),
+        (&[(numerical_file, &negative)], "mass must be > 0, got -10"),
         (
-            &[("attach = [\"x_p\"]", "attach = [\"x_p\", \"x_p\"]")],
-            "2 attachment(s)",
-        ),
-        (
-            &[("analysis_inputs = [\"z_n\"]", "analysis_inputs = [\"z\"]")],
-            "has no input \"z\" (inputs: [\"z_n\", \"z_p\"])",
-        ),
-        (
-            &[("analysis_inputs = [\"z_n\"]", "")],
-            "compare.analysis_inputs: name the inputs",
+            &[(
+                "roads = { z_n = \"road_0\" }",
+                "roads = { z_n = \"fixed\" }",
+            )],
+            "no input of the analysis follows the run's road_0",
         ),
         (
             &[(
@@ -212,32 +237,84 @@ fn bad_substructure_configurations_are_refused() {
         ),
         (
             &[(
-                "\n[limits]",
-                "\n[speed]\nkind = \"constant\"\nspeed_m_per_s = 40.0\n\n[limits]",
+                "road = { kind = \"pink\"",
+                "speed = { kind = \"constant\", speed_m_per_s = 40.0 }\nroad = { kind = \"pink\"",
             )],
-            "[speed] is for the aero model",
+            "excitation.speed is for the aero model",
         ),
     ];
     for (replace, expected) in cases {
         let e = error(replace);
         assert!(e.contains(expected), "{replace:?}: {e}");
     }
-    // No physical specimen at all.
-    let mut t = std::fs::read_to_string(examples().join("msd.toml")).unwrap();
-    let start = t.find("[rig.structure]").unwrap();
-    let end = t.find("[sensors]").unwrap();
-    t.replace_range(start..end, "");
-    let c = Config::from_toml(&t, &examples()).unwrap();
+    // The rig refuses an attachment that is no DOF or point of the physical structure, and
+    // a missing structure file, on its own (the run without the analysis).
+    let c = SetUp::from_toml(
+        &text(1.0, &[("physical = \"x_p\"", "physical = \"x_q\"")]),
+        &examples(),
+    )
+    .unwrap()
+    .run()
+    .unwrap();
+    let e = format!("{:#}", simulate(&c, |_| {}).err().unwrap());
+    assert!(e.contains("attachment \"x_q\" is no DOF or point"), "{e}");
+    let c = SetUp::from_toml(
+        &text(1.0, &[(file, "structure = \"missing.toml\"")]),
+        &examples(),
+    )
+    .unwrap()
+    .run()
+    .unwrap();
     let e = format!("{:#}", simulate(&c, |_| {}).err().unwrap());
     assert!(
-        e.contains("needs the physical specimen on the rig: [rig.structure]"),
+        e.contains("physical.structure") && e.contains("missing.toml"),
         "{e}"
     );
-    // No channels.
-    let start = t.find("[[substructure.channels]]").unwrap();
-    let end = t.find("[limits]").unwrap();
-    t.replace_range(start..end, "channels = []\n");
-    let c = Config::from_toml(&t, &examples()).unwrap();
+    // The board refuses an interface on a DOF its substructure does not have.
+    let c = SetUp::from_toml(
+        &text(1.0, &[("numerical = \"x_n\"", "numerical = \"x_m\"")]),
+        &examples(),
+    )
+    .unwrap()
+    .run()
+    .unwrap();
     let e = format!("{:#}", c.validate().unwrap_err());
-    assert!(e.contains("substructure.channels: 0 given"), "{e}");
+    assert!(e.contains("interface.channels[0]: no DOF \"x_m\""), "{e}");
+    // No physical part at all: a parse error naming it; an empty one: the reason.
+    let mut t = std::fs::read_to_string(examples().join("two-dof.toml")).unwrap();
+    let start = t.find("[physical]").unwrap();
+    let end = t.find("[[interface.channels]]").unwrap();
+    for (part, expected) in [
+        ("", "missing field `physical`"),
+        (
+            "[physical]\n\n",
+            "[physical]: give one of quarter_car, half_car or structure",
+        ),
+    ] {
+        let mut edited = t.clone();
+        edited.replace_range(start..end, part);
+        let e = format!(
+            "{:#}",
+            SetUp::from_toml(&edited, &examples())
+                .and_then(|s| s.sim())
+                .err()
+                .unwrap()
+        );
+        assert!(e.contains(expected), "{e}");
+    }
+    // No channels (and so no road for the numerical input).
+    let start = t.find("[[interface.channels]]").unwrap();
+    let end = t.find("# A small servo-hydraulic force actuator").unwrap();
+    t.replace_range(start..end, "[interface]\nchannels = []\n\n");
+    let fixed = t.replace(
+        "roads = { z_n = \"road_0\" }",
+        "roads = { z_n = \"fixed\" }",
+    );
+    assert_ne!(fixed, t);
+    let c = SetUp::from_toml(&fixed, &examples())
+        .unwrap()
+        .run()
+        .unwrap();
+    let e = format!("{:#}", c.validate().unwrap_err());
+    assert!(e.contains("interface.channels: 0 given"), "{e}");
 }

@@ -207,7 +207,7 @@ fn mil_param_and_daq_record_against_the_firmware() {
     // filter (DC gain 1) asks for no change: every step between two demand frames stays
     // within the frame's 0.1 N resolution plus the fade of what the filter's gain changes.
     let mark = demands.lock().unwrap().len();
-    let filter = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sim/tyre-filter.json");
+    let filter = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/tyre-filter.json");
     let o = run(&["filter", "upload", filter.to_str().unwrap()], TEST_SECRET);
     assert!(o.status.success(), "{}", text(&o));
     let settled = demand_after(&demands, 400);

@@ -163,7 +163,7 @@ impl ForceActuator {
     pub fn piston_force(&self, x: &[f64; ACTUATOR_STATES], rod_velocity: f64) -> f64 {
         let p = &self.params;
         let mut f =
-            p.piston_area_m2 * x[state::LOAD_PRESSURE] - p.seal_damping_ns_per_m * rod_velocity;
+            p.piston_area_m2 * x[state::LOAD_PRESSURE] - p.seal_damping_n_s_per_m * rod_velocity;
         if self.friction > 0.0 {
             f -= self.friction * (rod_velocity / FRICTION_SMOOTHING_M_PER_S).tanh();
         }

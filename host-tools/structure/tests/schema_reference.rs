@@ -9,6 +9,10 @@ use mil_structure::plausible::{
 use mil_structure::Model;
 use std::collections::{BTreeMap, BTreeSet};
 
+#[path = "common/markdown.rs"]
+mod markdown;
+use markdown::toml_blocks;
+
 fn reference() -> String {
     std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/structure.md"),
@@ -16,25 +20,6 @@ fn reference() -> String {
     .unwrap()
 }
 
-fn toml_blocks(text: &str) -> Vec<String> {
-    let mut blocks = Vec::new();
-    let mut current: Option<String> = None;
-    for line in text.lines() {
-        match (&mut current, line.trim_start()) {
-            (None, "```toml") => current = Some(String::new()),
-            (Some(block), "```") => {
-                blocks.push(std::mem::take(block));
-                current = None;
-            }
-            (Some(block), _) => {
-                block.push_str(line);
-                block.push('\n');
-            }
-            (None, _) => {}
-        }
-    }
-    blocks
-}
 
 /// Every key of a TOML value, recursively.
 fn keys(value: &toml::Value, out: &mut BTreeSet<String>) {
