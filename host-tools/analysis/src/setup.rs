@@ -429,7 +429,11 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Re
                 "interface: numerical_dofs and physical_dofs need one entry per channel",
             ));
         }
-        selector(&numerical, &i.numerical_dofs, "interface.channels numerical")?
+        selector(
+            &numerical,
+            &i.numerical_dofs,
+            "interface.channels numerical",
+        )?
     };
     let interface = Interface {
         location: location(&i.location)?,

@@ -16,6 +16,31 @@ fn options() -> Options {
     }
 }
 
+/// The README's paragraph on the real records (the one naming Silverbox, EMPS and Bouc-Wen
+/// results): every figure printed there must be what these tests compute.
+fn readme_paragraph() -> String {
+    let text = std::fs::read_to_string(path("../../README.md")).unwrap();
+    let start = text
+        .find("On the Silverbox record")
+        .expect("the README's paragraph");
+    let end = text[start..]
+        .find("It writes `updated.toml`")
+        .expect("its end");
+    text[start..start + end]
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Asserts the README paragraph states `figure` (as formatted).
+fn in_readme(figure: String) {
+    let paragraph = readme_paragraph();
+    assert!(
+        paragraph.contains(&figure),
+        "README states another figure than the code's {figure:?}:\n{paragraph}"
+    );
+}
+
 fn names(d: &mil_diagnose::Diagnosis) -> Vec<EffectKind> {
     d.named.iter().map(|n| n.named.effect).collect()
 }
@@ -41,6 +66,8 @@ fn emps_coulomb_friction_of_about_20_n() {
     println!("EMPS: F_c = {fc:.2} N (published about 20 N)");
     assert!((15.0..25.0).contains(&fc), "F_c {fc}");
     assert!(d.gap_after.nrmse < d.gap_recalibrated.nrmse);
+    let sd = d.named[0].std["force_n"];
+    in_readme(format!("`coulomb_friction` of {fc:.1} ± {sd:.1} N first"));
 }
 
 #[test]
@@ -62,6 +89,11 @@ fn silverbox_cubic_hardening_cuts_the_arrow_error() {
     );
     let k3 = d.named[0].named.parameters["stiffness_n_per_m3"];
     assert!(k3 > 0.0, "hardening expected, k3 = {k3}");
+    in_readme(format!(
+        "names `cubic_stiffness` (hardening) and the gap goes from {:.2} (model as given) and \
+         {:.3} (recalibrated) to {:.3}",
+        d.gap_before.nrmse, d.gap_recalibrated.nrmse, d.gap_after.nrmse
+    ));
     // The growing-amplitude "arrow" test section, simulated from rest.
     let arrow = Record::read(&path("data/silverbox_arrow.csv")).unwrap();
     let y = arrow.column("y").unwrap();
@@ -99,4 +131,8 @@ fn boucwen_hysteresis() {
         names(&d)
     );
     assert!(d.gap_after.nrmse < d.gap_recalibrated.nrmse);
+    in_readme(format!(
+        "names `hysteresis` and the gap goes from {:.2} and {:.3} to {:.3}",
+        d.gap_before.nrmse, d.gap_recalibrated.nrmse, d.gap_after.nrmse
+    ));
 }

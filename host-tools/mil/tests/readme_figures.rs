@@ -202,9 +202,6 @@ fn actuator_induced_mil_resonance() {
             response.emulated_resonances
         );
     }
-    // README: "17.18 Hz, ζ 0.082"; the code gives 17.1746 Hz (17.17 at the README's
-    // precision, as `mil analyze` prints it), as it did when the figure was written (commit
-    // 90f7706). Reported, left failing until the README or the code is settled.
     check(
         "actuator-induced MiL resonance",
         &[

@@ -19,7 +19,6 @@ fn reference() -> String {
     std::fs::read_to_string(manifest().join("../../docs/setup.md")).unwrap()
 }
 
-
 /// A scratch folder holding the shipped examples (the structure files and filters the
 /// blocks name).
 fn folder(name: &str) -> PathBuf {

@@ -20,7 +20,6 @@ fn reference() -> String {
     .unwrap()
 }
 
-
 /// Every key of a TOML value, recursively.
 fn keys(value: &toml::Value, out: &mut BTreeSet<String>) {
     match value {
