@@ -280,12 +280,15 @@ fn bad_substructure_configurations_are_refused() {
     .unwrap();
     let e = format!("{:#}", c.validate().unwrap_err());
     assert!(e.contains("interface.channels[0]: no DOF \"x_m\""), "{e}");
-    // No physical part at all: a parse error naming it; an empty one: the reason.
+    // No physical part, or an empty one: the reason, naming the table.
     let mut t = std::fs::read_to_string(examples().join("two-dof.toml")).unwrap();
     let start = t.find("[physical]").unwrap();
     let end = t.find("[[interface.channels]]").unwrap();
     for (part, expected) in [
-        ("", "missing field `physical`"),
+        (
+            "",
+            "[physical]: give one of quarter_car, half_car or structure",
+        ),
         (
             "[physical]\n\n",
             "[physical]: give one of quarter_car, half_car or structure",
