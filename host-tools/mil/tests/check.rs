@@ -323,6 +323,50 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// Whatever command-filter file `mil check` accepts, a set-up at its rate runs with it
+    /// through `mil analyze`, `mil run` and `mil sim`: the shipped tyre filter with its
+    /// coefficients scaled over two decades either way, signs flipped, sections dropped and
+    /// its rate changed (many of them unstable or inconsistent, which check must refuse).
+    #[test]
+    fn any_filter_check_accepts_runs_through_every_command(
+        scales in prop::collection::vec(prop::sample::select(vec![1.0, 1.0, 0.1, 0.5, 2.0, 10.0, -1.0]), 10),
+        keep in 1usize..=2,
+        rate in prop::sample::select(vec![500.0, 2000.0, 5000.0]),
+    ) {
+        let dir = scratch("property-filter");
+        let shipped = std::fs::read_to_string(manifest().join("examples/tyre-filter.json")).unwrap();
+        let mut json: serde_json::Value = serde_json::from_str(&shipped).unwrap();
+        json["sample_rate_hz"] = serde_json::json!(rate);
+        let sections = json["sections"].as_array_mut().unwrap();
+        sections.truncate(keep);
+        for (k, section) in sections.iter_mut().enumerate() {
+            for (j, key) in ["beta0", "beta1", "beta2", "alpha1", "alpha2"].iter().enumerate() {
+                let v = section[*key].as_f64().unwrap() * scales[(5 * k + j) % scales.len()];
+                section[*key] = serde_json::json!(v);
+            }
+        }
+        let filter = dir.join("filter.json");
+        std::fs::write(&filter, serde_json::to_string_pretty(&json).unwrap()).unwrap();
+        if check(&filter, None).is_ok() {
+            let path = example_with(&dir, "tyre.toml", &[
+                ("sample_rate_hz = 2000.0", &format!("sample_rate_hz = {rate:e}")),
+                ("# filter = \"tyre-filter.json\"", "filter = \"filter.json\""),
+                ("duration_s = 20.0", "duration_s = 0.25"),
+            ]);
+            let s = SetUp::read(&path).unwrap();
+            let analysed = mil::analyze::run_analyze(&s, &dir.join("analyze"));
+            prop_assert!(analysed.is_ok(), "analyze: {:#}", analysed.err().unwrap());
+            let run = mil::run(&s.run().unwrap(), |_| {});
+            prop_assert!(run.is_ok(), "run: {:#}", run.err().unwrap());
+            let sim = simulate(&s.sim().unwrap(), |_| {});
+            prop_assert!(sim.is_ok(), "sim: {:#}", sim.err().unwrap());
+        }
+    }
+}
+
 /// `mil sim … | head -1`: when stdout is closed early the command ends quietly with status
 /// 0 instead of panicking on the broken pipe.
 #[test]
