@@ -59,6 +59,18 @@ fn example_with(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
     path
 }
 
+/// Runs the set-up at `path` through `mil analyze` (outputs into `dir`), `mil run` and
+/// `mil sim`; the first failure, named.
+fn runs_through_every_command(path: &Path, dir: &Path) -> Result<(), String> {
+    let s = SetUp::read(path).map_err(|e| format!("read: {e:#}"))?;
+    mil::analyze::run_analyze(&s, &dir.join("analyze")).map_err(|e| format!("analyze: {e:#}"))?;
+    let run = s.run().map_err(|e| format!("run: {e:#}"))?;
+    mil::run(&run, |_| {}).map_err(|e| format!("run: {e:#}"))?;
+    let sim = s.sim().map_err(|e| format!("sim: {e:#}"))?;
+    simulate(&sim, |_| {}).map_err(|e| format!("sim: {e:#}"))?;
+    Ok(())
+}
+
 fn refused(path: &Path) -> String {
     match check(path, None) {
         Ok(s) => panic!("accepted: {s}"),
@@ -312,13 +324,8 @@ proptest! {
             ("duration_s = 20.0", "duration_s = 0.25"),
         ]);
         if check(&path, None).is_ok() {
-            let s = SetUp::read(&path).unwrap();
-            let analysed = mil::analyze::run_analyze(&s, &dir.join("analyze"));
-            prop_assert!(analysed.is_ok(), "analyze: {:#}", analysed.err().unwrap());
-            let run = mil::run(&s.run().unwrap(), |_| {});
-            prop_assert!(run.is_ok(), "run: {:#}", run.err().unwrap());
-            let sim = simulate(&s.sim().unwrap(), |_| {});
-            prop_assert!(sim.is_ok(), "sim: {:#}", sim.err().unwrap());
+            let ran = runs_through_every_command(&path, &dir);
+            prop_assert!(ran.is_ok(), "{}", ran.err().unwrap_or_default());
         }
     }
 }
@@ -356,13 +363,8 @@ proptest! {
                 ("# filter = \"tyre-filter.json\"", "filter = \"filter.json\""),
                 ("duration_s = 20.0", "duration_s = 0.25"),
             ]);
-            let s = SetUp::read(&path).unwrap();
-            let analysed = mil::analyze::run_analyze(&s, &dir.join("analyze"));
-            prop_assert!(analysed.is_ok(), "analyze: {:#}", analysed.err().unwrap());
-            let run = mil::run(&s.run().unwrap(), |_| {});
-            prop_assert!(run.is_ok(), "run: {:#}", run.err().unwrap());
-            let sim = simulate(&s.sim().unwrap(), |_| {});
-            prop_assert!(sim.is_ok(), "sim: {:#}", sim.err().unwrap());
+            let ran = runs_through_every_command(&path, &dir);
+            prop_assert!(ran.is_ok(), "{}", ran.err().unwrap_or_default());
         }
     }
 }
