@@ -432,8 +432,7 @@ impl Config {
         let validated = self.validate()?;
         if let (ModelKind::Tyre, Some(tyre)) = (self.model.kind, &self.tyre) {
             let car = self.quarter_car();
-            let weight =
-                (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2;
+            let weight = wheel_weight_n(&car);
             let load = f64::from(tyre.static_load_n);
             if (load - weight).abs() > 0.5 {
                 let kg =
@@ -571,6 +570,11 @@ impl Config {
             }
         }
     }
+}
+
+/// The weight a quarter car puts on its hub (N): `(m_s + m_u) g`, the tyre's static load.
+pub fn wheel_weight_n(car: &mil_analysis::examples::TyreExample) -> f64 {
+    (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2
 }
 
 /// The set-up key that carries a model-core parameter.

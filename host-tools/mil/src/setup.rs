@@ -41,7 +41,6 @@ use mil_analysis::setup::{
 };
 use mil_analysis::{PositionServoActuator, ServoHydraulicActuator};
 use mil_rig::actuator::ActuatorEffects;
-use mil_rig::specimen::GRAVITY_M_PER_S2;
 use mil_structure::model::InputKind;
 use mil_structure::{EffectKind, Element, Parameters};
 use serde::Deserialize;
@@ -454,11 +453,6 @@ impl SetUp {
         Ok(pair)
     }
 
-    /// The weight the quarter car puts on each hub (N).
-    fn static_wheel_load(car: &QuarterCar) -> f64 {
-        (car.sprung_mass_kg + car.unsprung_mass_kg) * GRAVITY_M_PER_S2
-    }
-
     /// The linear analysis of the set-up (`mil analyze`, `mil design-filter`).
     ///
     /// # Errors
@@ -473,7 +467,7 @@ impl SetUp {
             two_dof: Default::default(),
         };
         let (mut numerical, mut physical, mut interface) = (None, None, None);
-        let default_responses: Vec<(&str, &str, &str, f64, &str)>;
+        let default_responses: Vec<ResponseSection>;
         match self.pair()? {
             Pair::Tyre(t, q) => {
                 model.example = "tyre".into();
@@ -487,8 +481,13 @@ impl SetUp {
                     velocity_cutoff_hz: f64::from(t.velocity_cutoff_hz),
                     velocity_estimate: t.velocity_estimate,
                 };
-                default_responses =
-                    vec![("tyre force / road", "road", "interface_force", 1e-3, "N/mm")];
+                default_responses = vec![response(
+                    "tyre force / road",
+                    "road",
+                    "interface_force",
+                    1e-3,
+                    "N/mm",
+                )];
             }
             Pair::Aero(a, h) => {
                 model.example = "aero".into();
@@ -504,14 +503,14 @@ impl SetUp {
                     aero_stiffness: a.stiffness.map(|r| r.map(f64::from)),
                 };
                 default_responses = vec![
-                    (
+                    response(
                         "body vertical / road heave",
                         "road_heave",
                         "physical:z_b",
                         1.0,
                         "m/m",
                     ),
-                    (
+                    response(
                         "body pitch / road pitch",
                         "road_pitch",
                         "physical:theta_b",
@@ -557,27 +556,28 @@ impl SetUp {
                     damping: diagonal(&|c| c.damping_n_s_per_m),
                     velocity_cutoff_hz: None,
                 });
-                default_responses = vec![(
-                    "interface force / road",
-                    "",
-                    "interface_force",
-                    1e-3,
-                    "N/mm",
-                )];
+                // The interface force per each displacement input (read only when needed).
+                default_responses = if self.analysis.responses.is_empty() {
+                    structure_inputs(&[ns, ps], &self.base)?
+                        .iter()
+                        .map(|name| {
+                            response(
+                                &format!("interface force / {name}"),
+                                name,
+                                "interface_force",
+                                1e-3,
+                                "N/mm",
+                            )
+                        })
+                        .collect()
+                } else {
+                    Vec::new()
+                };
             }
         }
         let mut analysis = self.analysis.clone();
         if analysis.responses.is_empty() {
-            analysis.responses = default_responses
-                .iter()
-                .map(|&(name, input, output, scale, unit)| ResponseSection {
-                    name: name.into(),
-                    input: input.into(),
-                    output: output.into(),
-                    scale,
-                    unit: unit.into(),
-                })
-                .collect();
+            analysis.responses = default_responses;
         }
         // The analysis' measurement noise is the transducer the numerical model reads: the
         // displacement under force control, the load cell under position control.
@@ -611,32 +611,6 @@ impl SetUp {
             },
             analysis,
         };
-        // A structure pair's default response is per its first input (known once built).
-        let file = match (&file.interface, file.analysis.responses.first()) {
-            (Some(_), Some(r)) if r.input.is_empty() => {
-                let probe = SetupFile {
-                    analysis: AnalysisSection {
-                        responses: vec![],
-                        ..file.analysis.clone()
-                    },
-                    ..file.clone()
-                };
-                let inputs = structure_inputs(&probe, &self.base)?;
-                let mut file = file;
-                file.analysis.responses = inputs
-                    .iter()
-                    .map(|name| ResponseSection {
-                        name: format!("interface force / {name}"),
-                        input: name.clone(),
-                        output: "interface_force".into(),
-                        scale: 1e-3,
-                        unit: "N/mm".into(),
-                    })
-                    .collect();
-                file
-            }
-            _ => file,
-        };
         Setup::from_file(&file, &self.base).map_err(|e| anyhow::anyhow!("{e}"))
     }
 
@@ -664,7 +638,14 @@ impl SetUp {
         let (mut tyre, mut aero, mut substructure) = (None, None, None);
         let (kind, analysis_inputs) = match self.pair()? {
             Pair::Tyre(t, q) => {
-                let load = t.static_load_n.unwrap_or(Self::static_wheel_load(q) as f32);
+                let car = TyreExample {
+                    sprung_mass_kg: q.sprung_mass_kg,
+                    unsprung_mass_kg: q.unsprung_mass_kg,
+                    ..TyreExample::default()
+                };
+                let load = t
+                    .static_load_n
+                    .unwrap_or(crate::config::wheel_weight_n(&car) as f32);
                 tyre = Some(TyreSection {
                     stiffness_n_per_m: t.stiffness_n_per_m,
                     damping_n_s_per_m: t.damping_n_s_per_m,
@@ -672,11 +653,7 @@ impl SetUp {
                     lift_off: t.lift_off,
                     velocity_cutoff_hz: t.velocity_cutoff_hz,
                 });
-                rig.quarter_car = Some(TyreExample {
-                    sprung_mass_kg: q.sprung_mass_kg,
-                    unsprung_mass_kg: q.unsprung_mass_kg,
-                    ..TyreExample::default()
-                });
+                rig.quarter_car = Some(car);
                 rig.suspension = Some(q.suspension.clone());
                 rig.tyre_effects = q.tyre_effects.clone();
                 (ModelKind::Tyre, vec!["road".to_string()])
@@ -904,24 +881,33 @@ pub(crate) fn road_channel(
         })
 }
 
-/// The inputs of a custom analysis set-up, in order.
-fn structure_inputs(file: &SetupFile, base: &Path) -> Result<Vec<String>> {
+/// The displacement inputs of the structure files `parts` (relative to `base`), in order.
+fn structure_inputs(parts: &[&Path], base: &Path) -> Result<Vec<String>> {
     let mut names = Vec::new();
-    for part in [&file.numerical, &file.physical].into_iter().flatten() {
-        if let Some(s) = &part.structure {
-            let model =
-                mil_structure::Model::read(&base.join(s)).map_err(|e| anyhow::anyhow!("{e}"))?;
-            for i in &model.inputs {
-                if i.kind == InputKind::Displacement && !names.contains(&i.name) {
-                    names.push(i.name.clone());
-                }
+    for part in parts {
+        let model =
+            mil_structure::Model::read(&base.join(part)).map_err(|e| anyhow::anyhow!("{e}"))?;
+        for i in &model.inputs {
+            if i.kind == InputKind::Displacement && !names.contains(&i.name) {
+                names.push(i.name.clone());
             }
         }
     }
     if names.is_empty() {
-        bail!("[analysis] responses: the structures have no displacement input to respond to");
+        bail!("analysis.responses: the structures have no displacement input to respond to");
     }
     Ok(names)
+}
+
+/// A response of the analysis.
+fn response(name: &str, input: &str, output: &str, scale: f64, unit: &str) -> ResponseSection {
+    ResponseSection {
+        name: name.into(),
+        input: input.into(),
+        output: output.into(),
+        scale,
+        unit: unit.into(),
+    }
 }
 
 #[cfg(test)]
