@@ -25,8 +25,8 @@
 //! demand `F_c` (N); the outputs are the hub position `x_u` (m, what the rig's displacement
 //! transducer measures) and the load-cell force `F` (N, the interface force).
 
-use mil_analysis::ServoHydraulicActuator;
 use mil_discretise::{zoh_ss, DiscretiseError, StateSpace};
+use mil_params::ServoHydraulicActuator;
 use nalgebra::{DMatrix, SMatrix, SVector};
 use std::f64::consts::TAU;
 
@@ -254,6 +254,7 @@ impl SampledHubRig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use mil_analysis::LinearActuator;
     use nalgebra::{Matrix2, SVector};
     use num_complex::Complex64;
 

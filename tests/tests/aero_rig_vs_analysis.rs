@@ -15,9 +15,9 @@
 
 use mil::setup::SetUp;
 use mil_analysis::analyze::Signal;
-use mil_analysis::examples::AeroExample;
-use mil_analysis::{Loop, ServoHydraulicActuator};
+use mil_analysis::Loop;
 use mil_identify::{band_limited_noise, h1_estimate, FrfEstimate, Record, WelchOptions, Window};
+use mil_params::{AeroExample, ServoHydraulicActuator};
 use mil_rig::harness::{run, Histories, Instrumentation};
 use mil_rig::rigs::{aero_controller, aero_input, aero_static_demand, paper_aero_part};
 use model_core::{AeroParams, DemandLimits};

@@ -70,9 +70,10 @@ use mil::setup::SetUp;
 use mil_analysis::analyze::ResponseSpec;
 use mil_analysis::metrics::resonances;
 use mil_analysis::setup::Setup;
-use mil_analysis::{Loop, MilSystem, ResponseSource, ServoHydraulicActuator, VelocityEstimate};
+use mil_analysis::{LinearActuator, Loop, MilSystem, ResponseSource, VelocityEstimate};
 use mil_identify::{band_limited_noise, h1_estimate, FrfEstimate, Record, WelchOptions, Window};
 use mil_integration_tests::linear_rig::{HubRig, QuarterCar};
+use mil_params::ServoHydraulicActuator;
 use model_core::{
     CascadeCoefficients, Controller, ControllerParams, DemandLimits, ModelInput, TyreModel,
     TyreModelParams, TyreParams,

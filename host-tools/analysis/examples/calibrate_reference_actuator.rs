@@ -4,15 +4,15 @@
 //! gains and valve frequencies around it (the scan that chose the reference values):
 //! `cargo run --release -p mil-analysis --example calibrate_reference_actuator -- scan`.
 use mil_analysis::analyze::{analyze, AnalysisOptions, ResponseSpec, Signal};
-use mil_analysis::examples::{force_actuators, TyreExample};
-use mil_analysis::ServoHydraulicActuator;
+use mil_analysis::examples::{force_actuators, tyre_structure};
+use mil_analysis::LinearActuator;
+use mil_params::{ServoHydraulicActuator, TyreExample};
 
 fn figures(
     act: &ServoHydraulicActuator,
     delay: f64,
 ) -> Option<mil_analysis::analyze::AnalysisReport> {
-    let sys = TyreExample::default()
-        .structure(1.0 / 2000.0)
+    let sys = tyre_structure(&TyreExample::default(), 1.0 / 2000.0)
         .ok()?
         .with_actuators(force_actuators(act, delay).ok()?);
     analyze(&sys, &options()).ok()

@@ -41,6 +41,12 @@ pub enum AnalysisError {
     },
 }
 
+impl From<mil_params::ParamError> for AnalysisError {
+    fn from(e: mil_params::ParamError) -> Self {
+        Self::Setup(e.0)
+    }
+}
+
 /// Result with [`AnalysisError`].
 pub type Result<T> = std::result::Result<T, AnalysisError>;
 

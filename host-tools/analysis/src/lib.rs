@@ -9,9 +9,11 @@
 //!
 //! - [`system`]: the framework at one frequency ([`MilSystem::point`]).
 //! - [`metrics`]: grids, margins, resonances, band errors.
-//! - [`reference_actuator`]: the reference force-controlled servo-hydraulic actuator.
-//! - [`position_servo`]: the reference position-controlled servo-hydraulic actuator.
-//! - [`examples`]: the paper's tyre, aero and 2-DOF set-ups.
+//! - [`reference_actuator`]: the force-controlled servo-hydraulic actuator's responses.
+//! - [`position_servo`]: the position-controlled servo-hydraulic actuator's responses.
+//! - [`examples`]: the paper's tyre, aero and 2-DOF set-ups as linear structures.
+//!
+//! The parameter sets themselves (the examples', the actuators') live in `mil-params`.
 //! - [`response`]: responses from models or measured tables; the command filter.
 //!
 //! Units: SI; frequencies in Hz; phases in degrees; the Laplace variable in rad/s.
@@ -30,9 +32,7 @@ pub mod setup;
 pub mod system;
 
 pub use error::{AnalysisError, Result};
-pub use position_servo::PositionServoActuator;
-pub use reference_actuator::ServoHydraulicActuator;
-pub use response::{CommandFilter, ResponseSource};
+pub use response::{CommandFilter, LinearActuator, ResponseSource};
 pub use system::{
     ActuatorControl, Actuators, ImpedanceLocation, Interface, Loop, LoopDescription, LoopPoint,
     MechanicalPart, MilSystem, Stability, VelocityEstimate,

@@ -26,118 +26,32 @@
 //! above the loop bandwidth it falls to the order of the oil column `1/k_h`, and above `ω_h`
 //! to the rod inertia `1/(m_a ω²)`.
 
-use crate::error::{setup_error, Result};
+use crate::error::Result;
 use crate::poly::{add, mul, Rational};
-use serde::{Deserialize, Serialize};
-use std::f64::consts::TAU;
+use crate::response::LinearActuator;
+use mil_params::PositionServoActuator;
 
-/// Physical parameters of a position-controlled servo-hydraulic actuator (SI units).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PositionServoActuator {
-    /// Piston annulus area `A` (m²).
-    pub piston_area_m2: f64,
-    /// Total oil volume of both chambers and the lines to the valve `V` (m³).
-    pub oil_volume_m3: f64,
-    /// Effective bulk modulus of the oil `β` (Pa), including hose and air compliance.
-    pub bulk_modulus_pa: f64,
-    /// Moving mass of piston, rod and load-cell adaptor `m_a` (kg).
-    pub moving_mass_kg: f64,
-    /// Hydraulic damping ratio `ζ_h` of the oil column that sets `K_ce` (dimensionless).
-    pub hydraulic_damping_ratio: f64,
-    /// Servovalve first-order time constant `τ_v` (s).
-    pub valve_time_constant_s: f64,
-    /// Proportional position-loop (velocity) gain `K_v = K_q K_p / A` (1/s).
-    pub loop_gain_per_s: f64,
+/// `(D, tracking numerator, disturbance numerator)`, descending powers of `s`.
+fn polynomials(a: &PositionServoActuator) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let wh = a.hydraulic_frequency();
+    let a2 = a.piston_area_m2.powi(2);
+    let kce = a.flow_pressure_coefficient();
+    let valve = [a.valve_time_constant_s, 1.0];
+    let hydraulic = [1.0 / (wh * wh), a.moving_mass_kg * kce / a2, 1.0, 0.0];
+    let den = add(&mul(&hydraulic, &valve), &[a.loop_gain_per_s]);
+    let disturbance = mul(&[1.0 / a.hydraulic_stiffness(), kce / a2], &valve);
+    (den, vec![a.loop_gain_per_s], disturbance)
 }
 
-impl PositionServoActuator {
-    /// The reference position servo: a small actuator for a bench specimen (the paper's
-    /// 2-DOF example), `A = 5e-4 m²` (10 kN at 210 bar), `V = 1e-4 m³`, `β = 1 GPa`
-    /// (`k_h = 1e7 N/m`), `m_a = 2 kg` (oil column at 356 Hz), `ζ_h = 0.2`, `τ_v = 1.1 ms`,
-    /// `K_v = 2π·30 1/s`. Closed-loop poles at 45 Hz and 100 Hz (real) and 350 Hz (ζ 0.2):
-    /// −3 dB at 40 Hz, −90° at 62 Hz, no overshoot; static compliance 4.7e-7 m/N.
-    pub const REFERENCE: Self = Self {
-        piston_area_m2: 5.0e-4,
-        oil_volume_m3: 1.0e-4,
-        bulk_modulus_pa: 1.0e9,
-        moving_mass_kg: 2.0,
-        hydraulic_damping_ratio: 0.2,
-        valve_time_constant_s: 1.1e-3,
-        loop_gain_per_s: TAU * 30.0,
-    };
-
-    /// Checks that every parameter is finite and positive (`τ_v` may be zero: an ideal
-    /// valve).
-    ///
-    /// # Errors
-    /// Names the first offending field.
-    pub fn validate(&self) -> Result<()> {
-        let positive = [
-            ("piston_area_m2", self.piston_area_m2),
-            ("oil_volume_m3", self.oil_volume_m3),
-            ("bulk_modulus_pa", self.bulk_modulus_pa),
-            ("moving_mass_kg", self.moving_mass_kg),
-            ("hydraulic_damping_ratio", self.hydraulic_damping_ratio),
-            ("loop_gain_per_s", self.loop_gain_per_s),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(setup_error(format!(
-                    "position servo {name} must be > 0 (is {v})"
-                )));
-            }
-        }
-        let tau = self.valve_time_constant_s;
-        if !(tau.is_finite() && tau >= 0.0) {
-            return Err(setup_error(format!(
-                "position servo valve_time_constant_s must be >= 0 (is {tau})"
-            )));
-        }
-        Ok(())
-    }
-
-    /// Hydraulic (oil-column) stiffness `k_h = 4 β A²/V` (N/m).
-    pub fn hydraulic_stiffness(&self) -> f64 {
-        4.0 * self.bulk_modulus_pa * self.piston_area_m2.powi(2) / self.oil_volume_m3
-    }
-
-    /// Unloaded oil-column natural frequency `ω_h = √(k_h/m_a)` (rad/s).
-    pub fn hydraulic_frequency(&self) -> f64 {
-        (self.hydraulic_stiffness() / self.moving_mass_kg).sqrt()
-    }
-
-    /// Total flow-pressure coefficient `K_ce = 2 ζ_h A²/(m_a ω_h)` (m³/(s·Pa)).
-    pub fn flow_pressure_coefficient(&self) -> f64 {
-        2.0 * self.hydraulic_damping_ratio * self.piston_area_m2.powi(2)
-            / (self.moving_mass_kg * self.hydraulic_frequency())
-    }
-
-    /// Static compliance of the position loop against a steady load, `K_ce/(A² K_v)` (m/N).
-    pub fn static_compliance(&self) -> f64 {
-        self.flow_pressure_coefficient() / (self.piston_area_m2.powi(2) * self.loop_gain_per_s)
-    }
-
-    /// `(D, tracking numerator, disturbance numerator)`, descending powers of `s`.
-    fn polynomials(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let wh = self.hydraulic_frequency();
-        let a2 = self.piston_area_m2.powi(2);
-        let kce = self.flow_pressure_coefficient();
-        let valve = [self.valve_time_constant_s, 1.0];
-        let hydraulic = [1.0 / (wh * wh), self.moving_mass_kg * kce / a2, 1.0, 0.0];
-        let den = add(&mul(&hydraulic, &valve), &[self.loop_gain_per_s]);
-        let disturbance = mul(&[1.0 / self.hydraulic_stiffness(), kce / a2], &valve);
-        (den, vec![self.loop_gain_per_s], disturbance)
-    }
-
+impl LinearActuator for PositionServoActuator {
     /// Tracking response `p_d(s)`: rod position per position command (dimensionless), with
     /// no load.
     ///
     /// # Errors
     /// Invalid parameters.
-    pub fn tracking(&self) -> Result<Rational> {
+    fn tracking(&self) -> Result<Rational> {
         self.validate()?;
-        let (den, num, _) = self.polynomials();
+        let (den, num, _) = polynomials(self);
         Rational::new(num, den)
     }
 
@@ -146,9 +60,9 @@ impl PositionServoActuator {
     ///
     /// # Errors
     /// Invalid parameters.
-    pub fn disturbance(&self) -> Result<Rational> {
+    fn disturbance(&self) -> Result<Rational> {
         self.validate()?;
-        let (den, _, num) = self.polynomials();
+        let (den, _, num) = polynomials(self);
         Rational::new(num, den)
     }
 }

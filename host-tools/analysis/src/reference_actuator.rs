@@ -31,161 +31,52 @@
 //! why force-controlled rigs use velocity feed-forward, and why `r_f` is small in the paper.
 //!
 //! ## Calibration
-//! [`ServoHydraulicActuator::REFERENCE`] is a hub actuator of a motorsport tyre rig,
+//! [`ServoHydraulicActuator::REFERENCE`] (in `mil-params`) is a hub actuator of a motorsport tyre rig,
 //! calibrated so that the paper's tyre example reproduces the published figures: see the
 //! constant's documentation and the tests in `host-tools/mil/tests/analyze.rs`.
 
-use crate::error::{setup_error, Result};
+use crate::error::Result;
 use crate::poly::{add, mul, scale, Rational};
-use serde::{Deserialize, Serialize};
+use crate::response::LinearActuator;
+use mil_params::ServoHydraulicActuator;
 use std::f64::consts::TAU;
 
-/// Physical parameters of a force-controlled servo-hydraulic actuator (SI units).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ServoHydraulicActuator {
-    /// Piston annulus area `A` (m²).
-    pub piston_area_m2: f64,
-    /// Total oil volume of both chambers and the lines to the valve `V` (m³).
-    pub oil_volume_m3: f64,
-    /// Effective bulk modulus of the oil `β` (Pa), including hose and air compliance.
-    pub bulk_modulus_pa: f64,
-    /// Servovalve flow at full opening at the operating pressure drop `K_q` (m³/s).
-    pub flow_gain_m3_per_s: f64,
-    /// Flow-pressure coefficient plus cross-piston leakage `K_c` (m³/(s·Pa)).
-    pub flow_pressure_coefficient: f64,
-    /// Servovalve natural frequency `ω_v / 2π` (Hz).
-    pub valve_frequency_hz: f64,
-    /// Servovalve damping ratio `ζ_v`.
-    pub valve_damping_ratio: f64,
-    /// Moving mass between the piston and the load cell `m_a` (kg).
-    pub moving_mass_kg: f64,
-    /// Viscous seal friction `c_a` (N·s/m).
-    pub seal_damping_n_s_per_m: f64,
-    /// Proportional force gain `K_p` (valve opening per newton of force error, 1/N).
-    pub proportional_gain_per_n: f64,
-    /// Integral force gain `K_i` (valve opening per newton-second, 1/(N·s)).
-    pub integral_gain_per_n_s: f64,
-    /// Fraction `κ` of the piston's flow demand fed forward from its velocity (0…1).
-    pub velocity_feedforward: f64,
-    /// Supply pressure (Pa). Not used by the linear model; the simulated rig uses it for the
-    /// pressure and flow limits.
-    pub supply_pressure_pa: f64,
+/// The polynomials `(A K_q V_n C_n, D, r_f numerator)` of the module documentation.
+fn polynomials(a: &ServoHydraulicActuator) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let area = a.piston_area_m2;
+    let kq = a.flow_gain_m3_per_s;
+    let wv = TAU * a.valve_frequency_hz;
+    let vn = vec![wv * wv];
+    let vd = vec![1.0, 2.0 * a.valve_damping_ratio * wv, wv * wv];
+    let hd = vec![
+        a.oil_volume_m3 / (4.0 * a.bulk_modulus_pa),
+        a.flow_pressure_coefficient,
+    ];
+    let cn = vec![a.proportional_gain_per_n, a.integral_gain_per_n_s];
+    let cd = vec![1.0, 0.0];
+    let tracking_num = scale(&mul(&vn, &cn), area * kq);
+    let den = add(&mul(&mul(&hd, &vd), &cd), &tracking_num);
+    let velocity_path = mul(
+        &scale(&[1.0, 0.0], area * area * (1.0 - a.velocity_feedforward)),
+        &mul(&vd, &cd),
+    );
+    let inertia_path = mul(
+        &[a.moving_mass_kg, a.seal_damping_n_s_per_m, 0.0],
+        &mul(&mul(&hd, &vd), &cd),
+    );
+    let disturbance_num = scale(&add(&velocity_path, &inertia_path), -1.0);
+    (tracking_num, den, disturbance_num)
 }
 
-impl ServoHydraulicActuator {
-    /// The reference actuator: a hub actuator of a motorsport tyre rig.
-    ///
-    /// Values and why:
-    /// - `A = 1.2e-3 m²`: 25 kN at 210 bar, enough for a racing car's corner load with margin.
-    /// - `V = 3.0e-4 m³`, `β = 1.0e9 Pa`: a 0.1 m stroke cylinder plus manifold and hose
-    ///   volume; effective (not pure-oil) bulk modulus. Hydraulic stiffness `k_h ≈ 19 kN/mm`.
-    /// - `K_q = 1.0e-3 m³/s` (60 l/min), `K_c = 1e-13 m³/(s·Pa)`: a two-stage servovalve
-    ///   sized for 0.8 m/s; small leakage.
-    /// - Valve 100 Hz, `ζ_v = 0.7`: a high-response two-stage valve (its −90° frequency),
-    ///   as motorsport rigs use.
-    /// - `m_a = 6 kg`, `c_a = 600 N·s/m`: piston, rod and load-cell adaptor; seal friction.
-    /// - `K_p`, `K_i`, `κ`: tuned so that the tyre example gives the paper's figures (body
-    ///   bounce captured, a lightly damped MiL resonance near 17 Hz, open-loop phase lag beyond
-    ///   180° with gain margin about 1.4; see `host-tools/mil/tests/analyze.rs`).
-    pub const REFERENCE: Self = Self {
-        piston_area_m2: 1.2e-3,
-        oil_volume_m3: 3.0e-4,
-        bulk_modulus_pa: 1.0e9,
-        flow_gain_m3_per_s: 1.0e-3,
-        flow_pressure_coefficient: 1.0e-13,
-        valve_frequency_hz: 100.0,
-        valve_damping_ratio: 0.7,
-        moving_mass_kg: 6.0,
-        seal_damping_n_s_per_m: 600.0,
-        proportional_gain_per_n: 8.3e-6,
-        integral_gain_per_n_s: 3.0e-4,
-        velocity_feedforward: 1.0,
-        supply_pressure_pa: 210e5,
-    };
-
-    /// Checks that every parameter is finite and in its physical range.
-    ///
-    /// # Errors
-    /// Names the first offending field.
-    pub fn validate(&self) -> Result<()> {
-        let positive = [
-            ("piston_area_m2", self.piston_area_m2),
-            ("oil_volume_m3", self.oil_volume_m3),
-            ("bulk_modulus_pa", self.bulk_modulus_pa),
-            ("flow_gain_m3_per_s", self.flow_gain_m3_per_s),
-            ("valve_frequency_hz", self.valve_frequency_hz),
-            ("valve_damping_ratio", self.valve_damping_ratio),
-            ("proportional_gain_per_n", self.proportional_gain_per_n),
-            ("supply_pressure_pa", self.supply_pressure_pa),
-        ];
-        let non_negative = [
-            ("flow_pressure_coefficient", self.flow_pressure_coefficient),
-            ("moving_mass_kg", self.moving_mass_kg),
-            ("seal_damping_n_s_per_m", self.seal_damping_n_s_per_m),
-            ("integral_gain_per_n_s", self.integral_gain_per_n_s),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(setup_error(format!("actuator {name} must be > 0 (is {v})")));
-            }
-        }
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(setup_error(format!(
-                    "actuator {name} must be >= 0 (is {v})"
-                )));
-            }
-        }
-        if !(0.0..=1.0).contains(&self.velocity_feedforward) {
-            return Err(setup_error(format!(
-                "actuator velocity_feedforward must be in 0..=1 (is {})",
-                self.velocity_feedforward
-            )));
-        }
-        Ok(())
-    }
-
-    /// Hydraulic stiffness `4 β A² / V` (N/m) of the oil columns with the valve closed.
-    pub fn hydraulic_stiffness(&self) -> f64 {
-        4.0 * self.bulk_modulus_pa * self.piston_area_m2.powi(2) / self.oil_volume_m3
-    }
-
-    /// The polynomials `(A K_q V_n C_n, D, r_f numerator)` of the module documentation.
-    fn polynomials(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let a = self.piston_area_m2;
-        let kq = self.flow_gain_m3_per_s;
-        let wv = TAU * self.valve_frequency_hz;
-        let vn = vec![wv * wv];
-        let vd = vec![1.0, 2.0 * self.valve_damping_ratio * wv, wv * wv];
-        let hd = vec![
-            self.oil_volume_m3 / (4.0 * self.bulk_modulus_pa),
-            self.flow_pressure_coefficient,
-        ];
-        let cn = vec![self.proportional_gain_per_n, self.integral_gain_per_n_s];
-        let cd = vec![1.0, 0.0];
-        let tracking_num = scale(&mul(&vn, &cn), a * kq);
-        let den = add(&mul(&mul(&hd, &vd), &cd), &tracking_num);
-        let velocity_path = mul(
-            &scale(&[1.0, 0.0], a * a * (1.0 - self.velocity_feedforward)),
-            &mul(&vd, &cd),
-        );
-        let inertia_path = mul(
-            &[self.moving_mass_kg, self.seal_damping_n_s_per_m, 0.0],
-            &mul(&mul(&hd, &vd), &cd),
-        );
-        let disturbance_num = scale(&add(&velocity_path, &inertia_path), -1.0);
-        (tracking_num, den, disturbance_num)
-    }
-
+impl LinearActuator for ServoHydraulicActuator {
     /// Tracking response `p_f(s)`: load-cell force per force command (dimensionless), with the
     /// rod held still.
     ///
     /// # Errors
     /// Invalid parameters.
-    pub fn tracking(&self) -> Result<Rational> {
+    fn tracking(&self) -> Result<Rational> {
         self.validate()?;
-        let (num, den, _) = self.polynomials();
+        let (num, den, _) = polynomials(self);
         Rational::new(num, den)
     }
 
@@ -196,9 +87,9 @@ impl ServoHydraulicActuator {
     ///
     /// # Errors
     /// Invalid parameters.
-    pub fn disturbance(&self) -> Result<Rational> {
+    fn disturbance(&self) -> Result<Rational> {
         self.validate()?;
-        let (_, den, num) = self.polynomials();
+        let (_, den, num) = polynomials(self);
         Rational::new(num, den)
     }
 }

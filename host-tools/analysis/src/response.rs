@@ -9,6 +9,24 @@ use model_core::CascadeCoefficients;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
 
+/// An actuator model whose linear responses are rational in `s`: the tracking response
+/// (`P_f` or `P_d` of the paper's framework) and the disturbance response (`R_f` or `R_d`).
+pub trait LinearActuator {
+    /// Tracking response: output per command, with the specimen side held still (force
+    /// control) or unloaded (position control).
+    ///
+    /// # Errors
+    /// Invalid parameters, named.
+    fn tracking(&self) -> Result<Rational>;
+
+    /// Disturbance response: the output the specimen side causes with the command held at
+    /// zero (N/m for force control, m/N for position control).
+    ///
+    /// # Errors
+    /// Invalid parameters, named.
+    fn disturbance(&self) -> Result<Rational>;
+}
+
 /// Where a frequency response comes from.
 #[derive(Clone, Debug)]
 pub enum ResponseSource {

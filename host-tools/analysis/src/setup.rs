@@ -64,16 +64,18 @@
 
 use crate::analyze::{AnalysisOptions, ResponseSpec, Signal};
 use crate::error::{setup_error, AnalysisError, Result};
-use crate::examples::{AeroExample, Structure, TwoDofExample, TyreExample};
+use crate::examples::{aero_structure, two_dof_structure, tyre_structure, Structure};
 use crate::filter_file::FilterFile;
 use crate::poly::Rational;
+use crate::response::LinearActuator;
 use crate::response::{CommandFilter, ResponseSource};
 use crate::system::{
     ActuatorControl, Actuators, ExternalInput, ImpedanceLocation, Interface, MechanicalPart,
     MilSystem, VelocityEstimate,
 };
-use crate::{PositionServoActuator, ServoHydraulicActuator};
 use mil_identify::FrfTable;
+use mil_params::{AeroExample, TwoDofExample, TyreExample};
+use mil_params::{PositionServoActuator, ServoHydraulicActuator};
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -603,23 +605,6 @@ fn response(
 }
 
 impl Setup {
-    /// Reads and validates a set-up file.
-    ///
-    /// # Errors
-    /// I/O, TOML, or any inconsistency (named).
-    pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| AnalysisError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        let file: SetupFile = toml::from_str(&text).map_err(|e| AnalysisError::Parse {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })?;
-        let folder = path.parent().unwrap_or(Path::new("."));
-        Self::from_file(&file, folder)
-    }
-
     /// Builds the set-up from a parsed file; `folder` resolves relative file names.
     ///
     /// # Errors
@@ -630,9 +615,9 @@ impl Setup {
             return Err(setup_error("controller.sample_rate_hz must be > 0"));
         }
         let structure = match file.model.example.as_str() {
-            "tyre" => file.model.tyre.structure(1.0 / fs)?,
-            "aero" => file.model.aero.structure()?,
-            "two-dof" => file.model.two_dof.structure()?,
+            "tyre" => tyre_structure(&file.model.tyre, 1.0 / fs)?,
+            "aero" => aero_structure(&file.model.aero)?,
+            "two-dof" => two_dof_structure(&file.model.two_dof)?,
             "custom" => custom_structure(file, 1.0 / fs, folder)?,
             other => {
                 return Err(setup_error(format!(

@@ -1,11 +1,14 @@
 //! The loop forms of all four configurations against a direct solution of the coupled
 //! (emulated) system, and the MiL loop against hand-derived special cases.
 
-use mil_analysis::examples::{force_actuators, AeroExample, TwoDofExample, TyreExample};
+use mil_analysis::examples::{
+    aero_structure, axle_transform, force_actuators, two_dof_structure, tyre_structure,
+};
 use mil_analysis::metrics::log_grid;
 use mil_analysis::poly::Rational;
 use mil_analysis::system::{ActuatorControl, Actuators, ImpedanceLocation, Loop, MilSystem};
-use mil_analysis::{ResponseSource, ServoHydraulicActuator};
+use mil_analysis::{LinearActuator, ResponseSource};
+use mil_params::{AeroExample, ServoHydraulicActuator, TwoDofExample, TyreExample};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
@@ -24,11 +27,10 @@ fn ideal(control: ActuatorControl) -> Actuators {
 }
 
 fn two_dof(location: ImpedanceLocation, control: ActuatorControl) -> MilSystem {
-    TwoDofExample {
+    two_dof_structure(&TwoDofExample {
         interface_in_numerical: location == ImpedanceLocation::Numerical,
         ..TwoDofExample::default()
-    }
-    .structure()
+    })
     .unwrap()
     .with_actuators(ideal(control))
 }
@@ -70,8 +72,7 @@ fn all_four_configurations_reduce_to_the_coupled_system() {
 #[test]
 fn tyre_emulated_force_matches_the_quarter_car() {
     let t = TyreExample::default();
-    let sys = t
-        .structure(DT)
+    let sys = tyre_structure(&t, DT)
         .unwrap()
         .with_actuators(ideal(ActuatorControl::Force));
     for f in [0.7, 4.0, 12.0, 30.0] {
@@ -96,7 +97,7 @@ fn tyre_emulated_force_matches_the_quarter_car() {
 /// where `H` is the physical part's interface compliance, so it scales with `p`.
 #[test]
 fn open_loop_scales_with_the_actuator_gain() {
-    let base = TyreExample::default().structure(DT).unwrap();
+    let base = tyre_structure(&TyreExample::default(), DT).unwrap();
     let mut a = ideal(ActuatorControl::Force);
     let l1 = base
         .clone()
@@ -112,7 +113,7 @@ fn open_loop_scales_with_the_actuator_gain() {
 /// A loop delay only rotates the open loop: |L| unchanged, phase −360 f τ degrees.
 #[test]
 fn loop_delay_rotates_the_open_loop() {
-    let base = TyreExample::default().structure(DT).unwrap();
+    let base = tyre_structure(&TyreExample::default(), DT).unwrap();
     let mut a = ideal(ActuatorControl::Force);
     let l0 = base
         .clone()
@@ -138,11 +139,11 @@ fn aero_disturbance_acts_through_the_axle_transform() {
         transfer_function: Rational::new(vec![0.0], vec![1.0]).unwrap(),
         delay_s: 0.0,
     };
-    let sys = aero.structure().unwrap().with_actuators(actuators);
+    let sys = aero_structure(&aero).unwrap().with_actuators(actuators);
     let f = 8.0;
     let s = Complex64::new(0.0, TAU * f);
     let r = act.disturbance().unwrap().response(f);
-    let l = aero.axle_transform().map(|v| Complex64::new(v, 0.0));
+    let l = axle_transform(&aero).map(|v| Complex64::new(v, 0.0));
     let ap = sys.physical.dynamic_stiffness(s) - l.transpose() * &l * r;
     // Heave road input only: F_p = (C s + K)[1; 0].
     let c = sys.physical.damping.map(|v| Complex64::new(v, 0.0));
@@ -159,8 +160,7 @@ fn aero_disturbance_acts_through_the_axle_transform() {
 #[test]
 fn impossible_configurations_are_refused() {
     // Case 2 needs masses in the numerical part (the tyre's numerical part has none).
-    let mut sys = TyreExample::default()
-        .structure(DT)
+    let mut sys = tyre_structure(&TyreExample::default(), DT)
         .unwrap()
         .with_actuators(ideal(ActuatorControl::Force));
     sys.interface.location = ImpedanceLocation::Physical;
@@ -256,12 +256,10 @@ fn emulated_stability_from_the_coupled_dynamic_stiffness() {
             assert_eq!(by_loop, Stability::Stable, "{number}");
         }
     }
-    let tyre = TyreExample::default()
-        .structure(DT)
+    let tyre = tyre_structure(&TyreExample::default(), DT)
         .unwrap()
         .with_actuators(ideal(ActuatorControl::Force));
-    let aero = AeroExample::default()
-        .structure()
+    let aero = aero_structure(&AeroExample::default())
         .unwrap()
         .with_actuators(ideal(ActuatorControl::Force));
     for (name, sys) in [("tyre", tyre), ("aero", aero)] {

@@ -2,11 +2,12 @@
 //! that of model-core's `VelocityEstimator` stepped in `f32`, the stability count stays
 //! consistent with the gain margin, and the tyre set-up uses it by default (validated).
 
-use mil_analysis::examples::{force_actuators, TyreExample};
+use mil_analysis::examples::{force_actuators, tyre_structure};
 use mil_analysis::metrics::{characteristic_loci, log_grid, margins};
 use mil_analysis::setup::{Setup, SetupFile};
 use mil_analysis::system::{ActuatorControl, Loop, MilSystem, Stability, VelocityEstimate};
-use mil_analysis::ServoHydraulicActuator;
+use mil_params::ServoHydraulicActuator;
+use mil_params::TyreExample;
 use model_core::{TyreParams, VelocityEstimator, VelocityFilterCoefficients};
 use num_complex::Complex64;
 use std::f64::consts::TAU;
@@ -66,8 +67,7 @@ fn board_velocity_response_is_the_stepped_estimator() {
 
 /// The tyre example with the reference actuator.
 fn tyre(example: TyreExample, delay_s: f64) -> MilSystem {
-    example
-        .structure(1.0 / FS)
+    tyre_structure(&example, 1.0 / FS)
         .unwrap()
         .with_actuators(force_actuators(&ServoHydraulicActuator::REFERENCE, delay_s).unwrap())
 }

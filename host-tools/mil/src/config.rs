@@ -4,9 +4,10 @@
 
 use crate::signals::{RoadInput, SpeedInput, SpeedProfile};
 use anyhow::{bail, Context, Result};
+use mil_rig::experiment::PreparedSubstructure;
 use model_core::{
     AeroParams, CascadeCoefficients, Causality, ControllerParams, DemandLimits, InterfaceParams,
-    PreparedParams, SubstructureModel, SubstructureParams, TyreModelParams, TyreParams, MAX_DOF,
+    PreparedParams, SubstructureParams, TyreModelParams, TyreParams, MAX_DOF,
 };
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -184,7 +185,7 @@ pub struct RigSection {
     /// Parameters of every actuator (the nonlinear servo-hydraulic actuator with its force
     /// loop, `[actuator.reference]` of a `mil analyze` set-up); default: the reference hub
     /// actuator, `ServoHydraulicActuator::REFERENCE`.
-    pub actuator: Option<mil_analysis::ServoHydraulicActuator>,
+    pub actuator: Option<mil_params::ServoHydraulicActuator>,
     /// Switchable effects of every actuator (all off by default).
     pub actuator_effects: mil_rig::actuator::ActuatorEffects,
     /// The quarter car's suspension (tyre rig); default: the paper's linear `k_c`, `c_c`.
@@ -204,9 +205,9 @@ pub struct RigSection {
     /// schema of `mil diagnose`'s models and `updated.toml`) and where the actuators act.
     pub structure: Option<StructureOnRig>,
     /// The quarter car's masses (tyre rig); default the paper's.
-    pub quarter_car: Option<mil_analysis::examples::TyreExample>,
+    pub quarter_car: Option<mil_params::TyreExample>,
     /// The half car's masses and axles (aero rig); default the paper's.
-    pub half_car: Option<mil_analysis::examples::AeroExample>,
+    pub half_car: Option<mil_params::AeroExample>,
 }
 
 /// A structure file on the simulated rig (`[physical] structure`).
@@ -338,28 +339,14 @@ pub enum Validated {
     Substructure(PreparedSubstructure),
 }
 
-/// A substructure's parameter set, by its number of channels (model-core sizes the
-/// controller at compile time).
-#[derive(Clone, Debug)]
-pub enum PreparedSubstructure {
-    /// One channel.
-    One(Box<PreparedParams<SubstructureModel<1>, 1>>),
-    /// Two channels.
-    Two(Box<PreparedParams<SubstructureModel<2>, 2>>),
-    /// Three channels.
-    Three(Box<PreparedParams<SubstructureModel<3>, 3>>),
-    /// Four channels.
-    Four(Box<PreparedParams<SubstructureModel<4>, 4>>),
-}
-
 impl Config {
     /// The tyre rig's quarter car (`[physical.quarter_car]`) or the paper's.
-    pub fn quarter_car(&self) -> mil_analysis::examples::TyreExample {
+    pub fn quarter_car(&self) -> mil_params::TyreExample {
         self.rig.quarter_car.unwrap_or_default()
     }
 
     /// The aero rig's half car (`[physical.half_car]`) or the paper's.
-    pub fn half_car(&self) -> mil_analysis::examples::AeroExample {
+    pub fn half_car(&self) -> mil_params::AeroExample {
         self.rig.half_car.unwrap_or_default()
     }
 
@@ -573,7 +560,7 @@ impl Config {
 }
 
 /// The weight a quarter car puts on its hub (N): `(m_s + m_u) g`, the tyre's static load.
-pub fn wheel_weight_n(car: &mil_analysis::examples::TyreExample) -> f64 {
+pub fn wheel_weight_n(car: &mil_params::TyreExample) -> f64 {
     (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2
 }
 

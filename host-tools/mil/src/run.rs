@@ -1,7 +1,8 @@
 //! One open-loop run of the real-time controller step over a road input.
 
-use crate::config::{Config, PreparedSubstructure, Validated};
+use crate::config::{Config, Validated};
 use anyhow::{Context, Result};
+use mil_rig::experiment::PreparedSubstructure;
 use model_core::{Controller, Mode, Model, ModelInput, PreparedParams, Status};
 use serde::Serialize;
 use std::io::Write;

@@ -34,12 +34,12 @@ use crate::config::{
 };
 use crate::signals::{RoadInput, SpeedInput};
 use anyhow::{bail, Context, Result};
-use mil_analysis::examples::{AeroExample, TyreExample, TyreVelocity};
 use mil_analysis::setup::{
     ActuatorSection, AnalysisSection, InterfaceSection, ModelSection as AnalysisModel,
     NoiseSection, PartSection, ResponseEntry, ResponseSection, Setup, SetupFile,
 };
-use mil_analysis::{PositionServoActuator, ServoHydraulicActuator};
+use mil_params::{AeroExample, TyreExample, TyreVelocity};
+use mil_params::{PositionServoActuator, ServoHydraulicActuator};
 use mil_rig::actuator::ActuatorEffects;
 use mil_structure::model::InputKind;
 use mil_structure::{EffectKind, Element, Parameters};

@@ -10,23 +10,23 @@
 //! from the run (H1, Hann-windowed Welch) against the emulated one and, with
 //! and against the set-up's own analysis (`mil analyze`'s prediction).
 
-use crate::config::{Config, ModelKind, PreparedSubstructure, Validated};
-use crate::run::to_array;
+use crate::config::{Config, ModelKind, Validated};
 use anyhow::{anyhow, bail, Context, Result};
 use mil_analysis::analyze::Signal;
 use mil_analysis::response::CommandFilter;
 use mil_analysis::setup::Setup;
-use mil_analysis::{Loop, ServoHydraulicActuator};
+use mil_analysis::Loop;
 use mil_identify::{h1_estimate, FrfEstimate, Record, WelchOptions, Window};
 use mil_numerics::filter::lowpass2_zero_phase;
+use mil_params::ServoHydraulicActuator;
 use mil_plots::{BodePlot, BodeSeries, SeriesStyle, XyPlot, XySeries};
 use mil_rig::actuator::ForceActuator;
-use mil_rig::harness::{self, Histories, Instrumentation, LinkStatistics, RigPart};
+use mil_rig::experiment::{self, Experiment, Outcome, Setting};
+use mil_rig::harness::{Histories, Instrumentation, LinkStatistics};
 use mil_rig::metrics::{compare, Comparison};
-use mil_rig::rigs::IdealAero;
 use mil_rig::specimen::Specimen;
 use mil_structure::{EffectKind, Element};
-use model_core::{Controller, Mode, ModelInput, PreparedParams, Status, SubstructureModel};
+use model_core::{Mode, Status};
 use num_complex::Complex64;
 use serde::Serialize;
 use std::io::Write;
@@ -193,151 +193,38 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
         force_link: config.links.force.clone(),
         demand_link: config.links.demand.clone(),
     };
-    let actuator = ForceActuator::new(
-        config
-            .rig
-            .actuator
-            .unwrap_or(ServoHydraulicActuator::REFERENCE),
-        config.rig.actuator_effects,
-    )
-    .map_err(|e| anyhow!("actuator.reference: {e}"))?;
+    // The aero run's speed is its third input (m/s), per sample.
+    let speed = match &validated {
+        Validated::Aero(_, profile) => Some(profile.samples(n, fs)),
+        _ => None,
+    };
+    let mut inputs = columns(&rows, channels);
+    inputs.extend(speed);
+    let setting = setting(config, validated)?;
+    let experiment = Experiment {
+        setting,
+        actuator: ForceActuator::new(
+            config
+                .rig
+                .actuator
+                .unwrap_or(ServoHydraulicActuator::REFERENCE),
+            config.rig.actuator_effects,
+        )
+        .map_err(|e| anyhow!("actuator.reference: {e}"))?,
+        instrumentation,
+        sample_rate_hz: fs,
+        internal_step_s: step,
+        inputs,
+    };
     let started = std::time::Instant::now();
-    let (road_names, histories, links, filter_sections) = match validated {
-        Validated::Tyre(prepared) => {
-            let tyre = config
-                .tyre
-                .as_ref()
-                .context("the tyre run needs [numerical.tyre]")?;
-            let car = config.quarter_car();
-            let suspension = config
-                .rig
-                .suspension
-                .clone()
-                .unwrap_or_else(|| Specimen::quarter_car_suspension(&car));
-            let mut tyre_element = Element::linear(
-                f64::from(tyre.stiffness_n_per_m),
-                f64::from(tyre.damping_n_s_per_m),
-            )
-            .with_preload(f64::from(tyre.static_load_n));
-            tyre_element.effects = match &config.rig.tyre_effects {
-                Some(effects) => effects.clone(),
-                None if tyre.lift_off => [(EffectKind::LiftOff, Default::default())].into(),
-                None => Default::default(),
-            };
-            tyre_element
-                .validate()
-                .map_err(|e| anyhow::anyhow!("physical.quarter_car: {e}"))?;
-            let mut parts = (0..channels)
-                .map(|c| {
-                    mil_rig::rigs::quarter_car_part(
-                        &car,
-                        suspension.clone(),
-                        actuator,
-                        tyre_element.clone(),
-                        c,
-                        c,
-                        step,
-                    )
-                })
-                .collect::<Result<Vec<RigPart>, _>>()?;
-            let road = columns(&rows, channels);
-            let initial = [f64::from(tyre.static_load_n); 4];
-            let sections = prepared.params().filter[0].active().len();
-            let mut controller = Controller::new(*prepared);
-            let (h, links) = harness::run(
-                &mut controller,
-                &mut parts,
-                &instrumentation,
-                fs,
-                &road,
-                &initial,
-                |position, force, road, _| ModelInput {
-                    position: to_array(position),
-                    force: to_array(force),
-                    road: to_array(road),
-                    speed: 0.0,
-                },
-                progress,
-            )?;
-            let names = (0..channels).map(|c| format!("road_{c}")).collect();
-            (names, h, links, sections)
-        }
-        Validated::Aero(prepared, profile) => {
-            let car = config.half_car();
-            let params = prepared.params().model;
-            let front = config
-                .rig
-                .front_suspension
-                .clone()
-                .unwrap_or_else(|| Specimen::half_car_suspensions(&car).0);
-            let rear = config
-                .rig
-                .rear_suspension
-                .clone()
-                .unwrap_or_else(|| Specimen::half_car_suspensions(&car).1);
-            // The speed is the run's third input column (m/s): the board reads it per
-            // sample, the emulated aero model follows it ramped between samples. The rig
-            // starts at rest at the first sample's speed.
-            let speed = profile.samples(n, fs);
-            let start = speed.first().copied().unwrap_or_else(|| profile.at(0.0));
-            let mut parts = vec![mil_rig::rigs::half_car_part_varying_speed(
-                &car,
-                (front, rear),
-                actuator,
-                IdealAero::new(params, start),
-                0,
-                [0, 1],
-                2,
-                step,
-            )?];
-            let mut road = columns(&rows, channels);
-            road.push(speed);
-            let initial = mil_rig::rigs::aero_static_demand(&params, start);
-            let sections = prepared.params().filter[0].active().len();
-            let mut controller = Controller::new(*prepared);
-            let (h, links) = harness::run(
-                &mut controller,
-                &mut parts,
-                &instrumentation,
-                fs,
-                &road,
-                &initial,
-                mil_rig::rigs::aero_input_varying_speed(2),
-                progress,
-            )?;
-            (
-                vec!["road_front".into(), "road_rear".into(), "speed".into()],
-                h,
-                links,
-                sections,
-            )
-        }
-        Validated::Substructure(prepared) => {
-            let road = columns(&rows, channels);
-            let (h, links, sections) = match prepared {
-                PreparedSubstructure::One(p) => {
-                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
-                }
-                PreparedSubstructure::Two(p) => {
-                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
-                }
-                PreparedSubstructure::Three(p) => {
-                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
-                }
-                PreparedSubstructure::Four(p) => {
-                    substructure(*p, config, actuator, &road, &instrumentation, progress)?
-                }
-            };
-            let names = (0..channels).map(|c| format!("road_{c}")).collect();
-            (names, h, links, sections)
-        }
-    };
+    let Outcome {
+        histories,
+        links,
+        filter_sections,
+    } = experiment::run(&experiment, progress)?;
+    let road_names = experiment.setting.input_names();
+    let channel_names = experiment.setting.channel_names();
     let elapsed = started.elapsed().as_secs_f64().max(1e-9);
-    let channel_names: Vec<String> = match config.model.kind {
-        ModelKind::Tyre => (0..channels).map(|c| format!("wheel {c} hub")).collect(),
-        ModelKind::Aero => vec!["front axle".into(), "rear axle".into()],
-        ModelKind::Substructure => (0..channels).map(|c| format!("channel {c}")).collect(),
-    };
     let skip = settle_samples(config, histories.len());
     let band = |x: &[f64]| lowpass2_zero_phase(x, config.compare.f_max_hz, 1.0 / fs);
     let channel = (0..channels)
@@ -398,43 +285,63 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
     })
 }
 
-/// The run's physical specimen on `CH` force-controlled actuators with the board's
-/// substructure model: builds the rig part from `[physical] structure` and runs it. Returns the
-/// histories, the link statistics and the command filter's sections.
-fn substructure<const CH: usize>(
-    prepared: PreparedParams<SubstructureModel<CH>, CH>,
-    config: &Config,
-    actuator: ForceActuator,
-    road: &[Vec<f64>],
-    instrumentation: &Instrumentation,
-    progress: impl FnMut(f64),
-) -> Result<(Histories, LinkStatistics, usize)> {
-    let (specimen, specimen_inputs) = config.physical_specimen(CH)?;
-    let model_roads: [usize; CH] = std::array::from_fn(|c| c);
-    let params = prepared.params().model;
-    let mut parts = vec![mil_rig::rigs::substructure_part(
-        specimen,
-        vec![actuator; CH],
-        &params,
-        0,
-        &specimen_inputs,
-        model_roads,
-        config.rig.internal_step_s,
-    )
-    .map_err(|e| anyhow!("physical.structure: {}", e.0))?];
-    let sections = prepared.params().filter[0].active().len();
-    let mut controller = Controller::new(prepared);
-    let (h, links) = harness::run(
-        &mut controller,
-        &mut parts,
-        instrumentation,
-        config.run.sample_rate_hz,
-        road,
-        &[0.0; CH],
-        mil_rig::rigs::substructure_input(model_roads),
-        progress,
-    )?;
-    Ok((h, links, sections))
+/// The experiment's setting from the configuration and its validated board parameters: the
+/// specimen on the rig (the quarter car with its tyre, the half car, or the physical
+/// structure) and the board's model for it.
+fn setting(config: &Config, validated: Validated) -> Result<Setting> {
+    Ok(match validated {
+        Validated::Tyre(board) => {
+            let tyre = config
+                .tyre
+                .as_ref()
+                .context("the tyre run needs [numerical.tyre]")?;
+            let car = config.quarter_car();
+            let suspension = config
+                .rig
+                .suspension
+                .clone()
+                .unwrap_or_else(|| Specimen::quarter_car_suspension(&car));
+            let mut tyre_element = Element::linear(
+                f64::from(tyre.stiffness_n_per_m),
+                f64::from(tyre.damping_n_s_per_m),
+            )
+            .with_preload(f64::from(tyre.static_load_n));
+            tyre_element.effects = match &config.rig.tyre_effects {
+                Some(effects) => effects.clone(),
+                None if tyre.lift_off => [(EffectKind::LiftOff, Default::default())].into(),
+                None => Default::default(),
+            };
+            tyre_element
+                .validate()
+                .map_err(|e| anyhow!("physical.quarter_car: {e}"))?;
+            Setting::QuarterCars {
+                board,
+                car,
+                suspension,
+                tyre: tyre_element,
+            }
+        }
+        Validated::Aero(board, _) => {
+            let car = config.half_car();
+            let (front, rear) = Specimen::half_car_suspensions(&car);
+            Setting::HalfCar {
+                board,
+                car,
+                suspensions: (
+                    config.rig.front_suspension.clone().unwrap_or(front),
+                    config.rig.rear_suspension.clone().unwrap_or(rear),
+                ),
+            }
+        }
+        Validated::Substructure(board) => {
+            let (specimen, specimen_inputs) = config.physical_specimen(board.channels())?;
+            Setting::Structure {
+                board,
+                specimen,
+                specimen_inputs,
+            }
+        }
+    })
 }
 
 /// The aero run's lowest and highest speed (m/s): the histories' `speed` column.

@@ -195,15 +195,15 @@ fn bad_setups_name_the_problem() {
 /// (1.5 samples at 2 kHz): identical MiL and emulated responses to 1e-12 relative.
 #[test]
 fn custom_two_dof_equals_the_built_in_example() {
-    use mil_analysis::examples::{force_actuators, TwoDofExample};
-    use mil_analysis::{Loop, ServoHydraulicActuator};
+    use mil_analysis::examples::{force_actuators, two_dof_structure};
+    use mil_analysis::Loop;
+    use mil_params::{ServoHydraulicActuator, TwoDofExample};
     let a = SetUp::read(&setup("two-dof-hub-actuator.toml"))
         .unwrap()
         .analysis()
         .unwrap()
         .system;
-    let b = TwoDofExample::default()
-        .structure()
+    let b = two_dof_structure(&TwoDofExample::default())
         .unwrap()
         .with_actuators(force_actuators(&ServoHydraulicActuator::REFERENCE, 1.5 / 2000.0).unwrap());
     assert_eq!((a.configuration(), b.configuration()), (4, 4));
@@ -227,7 +227,8 @@ fn custom_two_dof_equals_the_built_in_example() {
 #[test]
 fn a_structure_file_is_the_physical_part() {
     use mil_analysis::analyze::analyze;
-    use mil_analysis::examples::TwoDofExample;
+    use mil_analysis::examples::two_dof_structure;
+    use mil_params::TwoDofExample;
     let mut shipped = SetUp::read(&setup("two-dof.toml")).unwrap();
     assert_eq!(
         shipped.physical.structure.as_deref(),
@@ -239,7 +240,7 @@ fn a_structure_file_is_the_physical_part() {
     let a = run_analyze(&shipped, out.path()).unwrap();
     // The same parts as matrices: x_n (m_n, c_n, k_n to z_n), x_p (m_p, c_p, k_p to the bed),
     // B_i numerical; the set-up's own actuator and analysis options.
-    let mut structure = TwoDofExample::default().structure().unwrap();
+    let mut structure = two_dof_structure(&TwoDofExample::default()).unwrap();
     assert_eq!(structure.inputs[1].name, "z_p");
     structure.inputs.truncate(1);
     let matrices = structure.with_actuators(a.setup.system.actuators.clone());

@@ -524,19 +524,19 @@ fn both_configurations_emulate_the_same_system() {
 /// on the built-in position servo with the set-up's loop delay.
 #[test]
 fn physical_file_equals_the_built_in_example() {
-    use mil_analysis::examples::TwoDofExample;
-    use mil_analysis::{Actuators, PositionServoActuator};
+    use mil_analysis::examples::two_dof_structure;
+    use mil_analysis::{Actuators, LinearActuator};
+    use mil_params::{PositionServoActuator, TwoDofExample};
     let a = read(PHYSICAL).system;
     let servo = PositionServoActuator::REFERENCE;
     let model = |transfer_function| ResponseSource::Model {
         transfer_function,
         delay_s: 0.0,
     };
-    let b = TwoDofExample {
+    let b = two_dof_structure(&TwoDofExample {
         interface_in_numerical: false,
         ..TwoDofExample::default()
-    }
-    .structure()
+    })
     .unwrap()
     .with_actuators(Actuators {
         control: ActuatorControl::Position,

@@ -5,9 +5,10 @@
 use mil::analyze::run_analyze;
 use mil::identify::{run_identify, IdentifyOptions};
 use mil::setup::SetUp;
-use mil_analysis::ServoHydraulicActuator;
+use mil_analysis::LinearActuator;
 use mil_discretise::{simulate_cascade, zoh_tf, TransferFunction};
 use mil_identify::{band_limited_noise, log_sine_sweep};
+use mil_params::ServoHydraulicActuator;
 use std::io::Write;
 use std::path::Path;
 

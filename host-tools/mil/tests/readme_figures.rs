@@ -12,9 +12,9 @@
 use mil::design_filter::{run_design_filter, DesignRequest, DesignSummary, Method};
 use mil::setup::SetUp;
 use mil_analysis::analyze::{analyze, AnalysisReport, ResponseFigures};
-use mil_analysis::examples::TyreVelocity;
 use mil_analysis::metrics::Resonance;
 use mil_analysis::Stability;
+use mil_params::TyreVelocity;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 

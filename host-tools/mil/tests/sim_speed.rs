@@ -6,7 +6,7 @@
 use mil::config::Config;
 use mil::setup::SetUp;
 use mil::sim::simulate;
-use mil_analysis::examples::AeroExample;
+use mil_params::AeroExample;
 use mil_rig::rigs::IdealAero;
 use model_core::AeroParams;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! The nonlinear force-controlled servo-hydraulic actuator of the simulated rig.
 //!
-//! The physics of [`mil_analysis::ServoHydraulicActuator`] (see `reference_actuator` in the
+//! The physics of [`mil_params::ServoHydraulicActuator`] (see `reference_actuator` in the
 //! analysis library) without its linearisation:
 //!
 //! ```text
@@ -41,7 +41,7 @@
 //! The rod weight is not modelled (rig actuators carry it by a static offset of their
 //! controller or a counterbalance).
 
-use mil_analysis::ServoHydraulicActuator;
+use mil_params::ServoHydraulicActuator;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 

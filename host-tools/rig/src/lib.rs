@@ -3,7 +3,7 @@
 //! - [`actuator`]: the nonlinear force-controlled servo-hydraulic actuator (servovalve with
 //!   spool saturation, orifice flow, chamber compressibility, friction, load cell and its
 //!   analogue force loop, supply pressure), which linearises to
-//!   [`mil_analysis::ServoHydraulicActuator`]'s `p_f(s)`, `r_f(s)`.
+//!   [`mil_params::ServoHydraulicActuator`]'s `p_f(s)`, `r_f(s)`.
 //! - [`specimen`]: mass-spring-damper specimens (the paper's quarter car and half car, or
 //!   any other) made of DOFs and force elements, with the actuators' attachment points. An
 //!   element's law and effects are `mil-structure`'s ([`mil_structure::Element`]), the
@@ -13,6 +13,7 @@
 //! - [`sensors`] and [`link`]: measurement noise, quantisation and bandwidth; the CAN link
 //!   as a per-sample delay with fixed-point scaling and optional dropped or corrupted frames.
 //! - [`harness`]: model-core's controller step against the rig and the emulated system.
+//! - [`experiment`]: the whole MiL experiment (board, rig, emulated system) in one call.
 //! - [`rigs`]: the paper's rigs assembled: the tyre and aero examples (the aero speed
 //!   constant or following a speed input), and any mass-spring-damper specimen coupled to
 //!   model-core's general substructure model.
@@ -26,6 +27,7 @@
 pub const DEFAULT_INTERNAL_STEP_S: f64 = 100e-6;
 
 pub mod actuator;
+pub mod experiment;
 pub mod harness;
 pub mod link;
 pub mod metrics;

@@ -9,7 +9,7 @@ use crate::actuator::ForceActuator;
 use crate::harness::RigPart;
 use crate::plant::{AffineInterface, IdealInterface, Plant};
 use crate::specimen::{Specimen, SpecimenError};
-use mil_analysis::examples::{AeroExample, TyreExample};
+use mil_params::{AeroExample, TyreExample};
 use mil_structure::{CompiledLaw, EffectKind, Element};
 use model_core::aero::MAP_POINTS;
 use model_core::{
@@ -198,7 +198,7 @@ pub fn tyre_input(
 pub fn paper_tyre_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
     let car = TyreExample::default();
     let actuator = ForceActuator::new(
-        mil_analysis::ServoHydraulicActuator::REFERENCE,
+        mil_params::ServoHydraulicActuator::REFERENCE,
         crate::actuator::ActuatorEffects::default(),
     )
     .map_err(|e| SpecimenError(e.to_string()))?;
@@ -565,7 +565,7 @@ pub fn aero_input_varying_speed(
 pub fn paper_aero_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
     let car = AeroExample::default();
     let actuator = ForceActuator::new(
-        mil_analysis::ServoHydraulicActuator::REFERENCE,
+        mil_params::ServoHydraulicActuator::REFERENCE,
         crate::actuator::ActuatorEffects::default(),
     )
     .map_err(|e| SpecimenError(e.to_string()))?;
@@ -946,7 +946,7 @@ mod tests {
 
     fn reference_actuator() -> ForceActuator {
         ForceActuator::new(
-            mil_analysis::ServoHydraulicActuator::REFERENCE,
+            mil_params::ServoHydraulicActuator::REFERENCE,
             crate::actuator::ActuatorEffects::default(),
         )
         .unwrap()

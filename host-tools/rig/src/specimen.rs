@@ -22,7 +22,7 @@
 //! its half car on a four-poster with down-force actuators ([`Specimen::half_car`]); any
 //! other structure can be described directly (a general mass-spring-damper specimen).
 
-use mil_analysis::examples::{AeroExample, TyreExample};
+use mil_params::{AeroExample, TyreExample};
 use mil_structure::model::InputKind;
 use mil_structure::{Element, Model};
 use serde::{Deserialize, Serialize};

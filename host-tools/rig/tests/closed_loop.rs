@@ -11,9 +11,10 @@
 //! its delay and dropped frames change nothing, and its corrupted frames matter only when
 //! the controller's input validation catches them.
 
-use mil_analysis::examples::TyreExample;
-use mil_analysis::ServoHydraulicActuator;
+use mil_analysis::analyze::{analyze, AnalysisOptions, ResponseSpec, Signal};
+use mil_analysis::examples::{force_actuators, tyre_structure};
 use mil_identify::band_limited_noise;
+use mil_params::{ServoHydraulicActuator, TyreExample};
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
 use mil_rig::harness::{run, Histories, Instrumentation, LinkStatistics};
 use mil_rig::link::LinkSpec;
@@ -193,23 +194,27 @@ fn replay_with_position_lag(h: &Histories, tyre: TyreParams, lag: usize) -> f64 
 /// margin in degrees, its frequency in Hz).
 fn analysed_loop(extra: usize) -> (bool, f64, f64, f64) {
     let delay = (1.5 + extra as f64) / FS;
-    let text = format!(
-        "name = \"tyre\"\nconfiguration = 4\n[model]\nexample = \"tyre\"\n\
-         [actuator]\ncontrol = \"force\"\ntracking = \"reference\"\n\
-         disturbance = \"reference\"\nloop_delay_s = {delay:e}\n\
-         [controller]\nsample_rate_hz = {FS:.1}\n\
-         [[analysis.responses]]\nname = \"tyre force / road\"\ninput = \"road\"\n\
-         output = \"interface_force\"\n"
-    );
-    let path = std::env::temp_dir().join(format!(
-        "mil-rig-closed-loop-{}-{extra}.toml",
-        std::process::id()
-    ));
-    std::fs::write(&path, text).unwrap();
-    let setup = mil_analysis::setup::Setup::read(&path);
-    std::fs::remove_file(&path).ok();
-    let setup = setup.unwrap();
-    let r = mil_analysis::analyze::analyze(&setup.system, &setup.options).unwrap();
+    let system = tyre_structure(&TyreExample::default(), 1.0 / FS)
+        .unwrap()
+        .with_actuators(force_actuators(&ServoHydraulicActuator::REFERENCE, delay).unwrap());
+    // A set-up's default analysis: 0.5 Hz to Nyquist, 200 points per decade.
+    let options = AnalysisOptions {
+        f_min_hz: 0.5,
+        f_max_hz: FS / 2.0,
+        points_per_decade: 200,
+        bands: Vec::new(),
+        responses: vec![ResponseSpec {
+            name: "tyre force / road".into(),
+            input: 0,
+            output: Signal::InterfaceForce(0),
+            display_scale: 1.0,
+            display_unit: "N/m".into(),
+        }],
+        min_prominence_db: 1.0,
+        noise_rms: 0.0,
+        nyquist_hz: FS / 2.0,
+    };
+    let r = analyze(&system, &options).unwrap();
     (
         r.mil.stability == mil_analysis::Stability::Stable,
         r.mil.gain_margin.unwrap_or(f64::NAN),

@@ -7,7 +7,8 @@
 //! Tolerance: 1e-4 relative over 0.1–500 Hz (finite-difference error; the models are the
 //! same physics, so any larger gap is a modelling difference).
 
-use mil_analysis::ServoHydraulicActuator;
+use mil_analysis::LinearActuator;
+use mil_params::ServoHydraulicActuator;
 use mil_rig::actuator::{ActuatorEffects, ForceActuator, ACTUATOR_STATES};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;

@@ -7,9 +7,8 @@
 //! relative to the force's RMS variation. Speed is not asserted here: see the
 //! `realtime_factor` example.
 
-use mil_analysis::examples::TyreExample;
-use mil_analysis::ServoHydraulicActuator;
 use mil_identify::band_limited_noise;
+use mil_params::{ServoHydraulicActuator, TyreExample};
 use mil_rig::actuator::{ActuatorEffects, ForceActuator};
 use mil_rig::harness::{run, Histories, Instrumentation};
 use mil_rig::plant::Plant;

@@ -1,0 +1,338 @@
+//! The whole MiL experiment in one call: model-core's controller with a prepared parameter
+//! set (the board), the rig built around its channels (the specimen on force-controlled
+//! actuators, sensors and CAN links) and the emulated system beside it, run over the
+//! inputs ([`run`]). `mil sim` describes the experiment from a set-up file and hands it
+//! here; tests build it directly.
+
+use crate::actuator::ForceActuator;
+use crate::harness::{self, HarnessError, Histories, Instrumentation, LinkStatistics, RigPart};
+use crate::rigs::{
+    aero_input_varying_speed, aero_static_demand, half_car_part_varying_speed, quarter_car_part,
+    substructure_input, substructure_part, IdealAero,
+};
+use crate::specimen::{Specimen, SpecimenError};
+use mil_params::{AeroExample, TyreExample};
+use mil_structure::Element;
+use model_core::{AeroModel, Controller, PreparedParams, SubstructureModel, TyreModel};
+
+/// The tyre board's channels (model-core's tyre model is sized for a car's four wheels).
+pub const TYRE_CHANNELS: usize = 4;
+
+/// A substructure's board parameters, by its number of channels (model-core sizes the
+/// controller at compile time).
+#[derive(Clone, Debug)]
+pub enum PreparedSubstructure {
+    /// One channel.
+    One(Box<PreparedParams<SubstructureModel<1>, 1>>),
+    /// Two channels.
+    Two(Box<PreparedParams<SubstructureModel<2>, 2>>),
+    /// Three channels.
+    Three(Box<PreparedParams<SubstructureModel<3>, 3>>),
+    /// Four channels.
+    Four(Box<PreparedParams<SubstructureModel<4>, 4>>),
+}
+
+impl PreparedSubstructure {
+    /// The number of channels.
+    pub fn channels(&self) -> usize {
+        match self {
+            Self::One(_) => 1,
+            Self::Two(_) => 2,
+            Self::Three(_) => 3,
+            Self::Four(_) => 4,
+        }
+    }
+}
+
+/// The specimen on the rig and the board's model for it: the paper's two vehicles or any
+/// mass-spring-damper structure.
+#[derive(Clone, Debug)]
+pub enum Setting {
+    /// The paper's tyre rig: [`TYRE_CHANNELS`] quarter cars, each hanging on its hub
+    /// actuator, with a numerical tyre per wheel on the board. Input `c` is wheel `c`'s road
+    /// (m); the rig starts at rest at the board's static tyre loads.
+    QuarterCars {
+        /// The board's tyre model.
+        board: Box<PreparedParams<TyreModel<TYRE_CHANNELS>, TYRE_CHANNELS>>,
+        /// The quarter car's masses.
+        car: TyreExample,
+        /// The suspension between body and hub.
+        suspension: Element,
+        /// The emulated system's tyre (the law the board's tyre stands for).
+        tyre: Element,
+    },
+    /// The paper's four-poster: a half car on front and rear down-force actuators with the
+    /// aerodynamic model on the board. Inputs: front and rear road (m), then the speed (m/s)
+    /// per sample, which the board reads per sample and the emulated aero model follows
+    /// ramped between samples; the rig starts at rest at the first sample's speed.
+    HalfCar {
+        /// The board's aero model.
+        board: Box<PreparedParams<AeroModel, 2>>,
+        /// The half car's masses and geometry.
+        car: AeroExample,
+        /// Front and rear suspensions.
+        suspensions: (Element, Element),
+    },
+    /// Any mass-spring-damper specimen on force-controlled actuators (one per attachment)
+    /// with model-core's substructure model on the board (the paper's configuration 4).
+    /// The model's road input of channel `c` is input `c`; the specimen's displacement
+    /// inputs are the inputs `specimen_inputs`.
+    Structure {
+        /// The board's substructure model.
+        board: PreparedSubstructure,
+        /// The physical specimen, with one attachment per channel.
+        specimen: Specimen,
+        /// Which input drives each of the specimen's displacement inputs.
+        specimen_inputs: Vec<usize>,
+    },
+}
+
+impl Setting {
+    /// The number of force-controlled channels.
+    pub fn channels(&self) -> usize {
+        match self {
+            Self::QuarterCars { .. } => TYRE_CHANNELS,
+            Self::HalfCar { .. } => 2,
+            Self::Structure { board, .. } => board.channels(),
+        }
+    }
+
+    /// The channels' names, as a rig engineer calls them.
+    pub fn channel_names(&self) -> Vec<String> {
+        match self {
+            Self::QuarterCars { .. } => (0..TYRE_CHANNELS)
+                .map(|c| format!("wheel {c} hub"))
+                .collect(),
+            Self::HalfCar { .. } => vec!["front axle".into(), "rear axle".into()],
+            Self::Structure { board, .. } => (0..board.channels())
+                .map(|c| format!("channel {c}"))
+                .collect(),
+        }
+    }
+
+    /// The inputs' names, in the order [`Experiment::inputs`] holds them.
+    pub fn input_names(&self) -> Vec<String> {
+        match self {
+            Self::HalfCar { .. } => vec!["road_front".into(), "road_rear".into(), "speed".into()],
+            _ => (0..self.channels()).map(|c| format!("road_{c}")).collect(),
+        }
+    }
+}
+
+/// One MiL experiment: the setting, the actuators, the instrumentation, the rates and the
+/// inputs.
+#[derive(Clone, Debug)]
+pub struct Experiment {
+    /// The specimen and the board's model.
+    pub setting: Setting,
+    /// Every channel's actuator.
+    pub actuator: ForceActuator,
+    /// Sensors and CAN links.
+    pub instrumentation: Instrumentation,
+    /// The board's sample rate (Hz).
+    pub sample_rate_hz: f64,
+    /// The plants' RK4 step (s), at most the sample period.
+    pub internal_step_s: f64,
+    /// Per input ([`Setting::input_names`]) its samples, all equally long.
+    pub inputs: Vec<Vec<f64>>,
+}
+
+/// What an experiment yields.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The MiL and emulated histories, per sample.
+    pub histories: Histories,
+    /// The CAN links' statistics.
+    pub links: LinkStatistics,
+    /// The active sections of the board's command filter.
+    pub filter_sections: usize,
+}
+
+/// Why an experiment could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// The specimen or its coupling to the board's model is invalid.
+    #[error("{0}")]
+    Specimen(#[from] SpecimenError),
+    /// Sensors, links or the inputs' layout are invalid.
+    #[error(transparent)]
+    Harness(#[from] HarnessError),
+}
+
+/// Runs `experiment`: builds the rig and the emulated system around the board's channels,
+/// starts the board, and steps them over every sample of the inputs. `progress` gets the
+/// fraction done now and then.
+///
+/// # Errors
+/// An invalid specimen, a board model the rig cannot emulate, invalid sensors or links, or
+/// inputs that do not fit the setting.
+pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome, ExperimentError> {
+    let Experiment {
+        setting,
+        actuator,
+        instrumentation,
+        sample_rate_hz: fs,
+        internal_step_s: step,
+        inputs,
+    } = experiment;
+    let expected = setting.input_names().len();
+    if matches!(setting, Setting::HalfCar { .. }) && inputs.len() != expected {
+        return Err(HarnessError::Layout(format!(
+            "the half car needs {expected} inputs (front road, rear road, speed), got {}",
+            inputs.len()
+        ))
+        .into());
+    }
+    match setting {
+        Setting::QuarterCars {
+            board,
+            car,
+            suspension,
+            tyre,
+        } => {
+            let mut parts = (0..TYRE_CHANNELS)
+                .map(|c| {
+                    quarter_car_part(
+                        car,
+                        suspension.clone(),
+                        *actuator,
+                        tyre.clone(),
+                        c,
+                        c,
+                        *step,
+                    )
+                })
+                .collect::<Result<Vec<RigPart>, _>>()?;
+            let initial = board.params().model.tyre.map(|t| f64::from(t.static_load));
+            on_board(
+                board,
+                &mut parts,
+                instrumentation,
+                *fs,
+                inputs,
+                &initial,
+                substructure_input(std::array::from_fn(|c| c)),
+                progress,
+            )
+        }
+        Setting::HalfCar {
+            board,
+            car,
+            suspensions,
+        } => {
+            let params = board.params().model;
+            let start = inputs
+                .get(2)
+                .and_then(|speed| speed.first())
+                .copied()
+                .unwrap_or_else(|| f64::from(params.reference_speed));
+            let mut parts = vec![half_car_part_varying_speed(
+                car,
+                suspensions.clone(),
+                *actuator,
+                IdealAero::new(params, start),
+                0,
+                [0, 1],
+                2,
+                *step,
+            )?];
+            on_board(
+                board,
+                &mut parts,
+                instrumentation,
+                *fs,
+                inputs,
+                &aero_static_demand(&params, start),
+                aero_input_varying_speed(2),
+                progress,
+            )
+        }
+        Setting::Structure {
+            board,
+            specimen,
+            specimen_inputs,
+        } => {
+            let args = (specimen, specimen_inputs, *actuator, instrumentation);
+            match board {
+                PreparedSubstructure::One(p) => structure(p, args, *fs, *step, inputs, progress),
+                PreparedSubstructure::Two(p) => structure(p, args, *fs, *step, inputs, progress),
+                PreparedSubstructure::Three(p) => structure(p, args, *fs, *step, inputs, progress),
+                PreparedSubstructure::Four(p) => structure(p, args, *fs, *step, inputs, progress),
+            }
+        }
+    }
+}
+
+/// A structure on `CH` actuators with model-core's substructure model on the board.
+fn structure<const CH: usize>(
+    board: &PreparedParams<SubstructureModel<CH>, CH>,
+    (specimen, specimen_inputs, actuator, instrumentation): (
+        &Specimen,
+        &Vec<usize>,
+        ForceActuator,
+        &Instrumentation,
+    ),
+    fs: f64,
+    step: f64,
+    inputs: &[Vec<f64>],
+    progress: impl FnMut(f64),
+) -> Result<Outcome, ExperimentError> {
+    let model_roads: [usize; CH] = std::array::from_fn(|c| c);
+    let mut parts = vec![substructure_part(
+        specimen.clone(),
+        vec![actuator; CH],
+        &board.params().model,
+        0,
+        specimen_inputs,
+        model_roads,
+        step,
+    )?];
+    on_board(
+        board,
+        &mut parts,
+        instrumentation,
+        fs,
+        inputs,
+        &[0.0; CH],
+        substructure_input(model_roads),
+        progress,
+    )
+}
+
+/// Starts model-core's controller with `board` and runs it against `parts`.
+#[allow(clippy::too_many_arguments)]
+fn on_board<M: model_core::Model<CH>, const CH: usize>(
+    board: &PreparedParams<M, CH>,
+    parts: &mut [RigPart],
+    instrumentation: &Instrumentation,
+    fs: f64,
+    inputs: &[Vec<f64>],
+    initial_demand: &[f64; CH],
+    input: impl Fn(&[f64; CH], &[f64; CH], &[f64], usize) -> model_core::ModelInput<CH>,
+    progress: impl FnMut(f64),
+) -> Result<Outcome, ExperimentError>
+where
+    PreparedParams<M, CH>: Clone,
+{
+    let filter_sections = board
+        .params()
+        .filter
+        .first()
+        .map_or(0, |f| f.active().len());
+    let mut controller = Controller::new(board.clone());
+    let (histories, links) = harness::run(
+        &mut controller,
+        parts,
+        instrumentation,
+        fs,
+        inputs,
+        initial_demand,
+        input,
+        progress,
+    )?;
+    Ok(Outcome {
+        histories,
+        links,
+        filter_sections,
+    })
+}
