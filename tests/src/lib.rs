@@ -4,8 +4,10 @@
 //! - [`ReferenceSystem`]: an f64 discrete state-space reference.
 //! - [`linear_rig`]: the reference servo-hydraulic actuator on a quarter car, in the time
 //!   domain.
+//! - [`readme`]: README.md's figures, checked where it cites the test that computes them.
 
 pub mod linear_rig;
+pub mod readme;
 
 use nalgebra::{DMatrix, DVector};
 

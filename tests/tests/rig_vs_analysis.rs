@@ -8,9 +8,9 @@
 
 use mil::setup::SetUp;
 use mil_analysis::analyze::Signal;
-use mil_analysis::examples::TyreExample;
-use mil_analysis::{Loop, ServoHydraulicActuator};
+use mil_analysis::Loop;
 use mil_identify::{band_limited_noise, h1_estimate, Record, WelchOptions, Window};
+use mil_params::{ServoHydraulicActuator, TyreExample};
 use mil_rig::harness::{run, Instrumentation};
 use mil_rig::rigs::{paper_tyre_part, tyre_controller, tyre_input};
 use model_core::{DemandLimits, TyreParams};
@@ -136,4 +136,8 @@ fn tyre_rig_frf_matches_the_analysis() {
     // 0.05 deg emulated): the plant's RK4, the analysis' exact evaluation.
     assert!(worst[0].0 < 0.05 && worst[0].1 < 0.3, "MiL {worst:?}");
     assert!(worst[1].0 < 0.05 && worst[1].1 < 0.3, "emulated {worst:?}");
+    mil_integration_tests::readme::assert_states(
+        "tests/tests/rig_vs_analysis.rs",
+        &format!("{:.3} dB / {:.2}°", worst[0].0, worst[0].1),
+    );
 }
