@@ -154,3 +154,42 @@ pub(crate) fn balance(a: &mut [f64], p: usize) -> Vec<f64> {
     }
     d
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invert_gives_the_inverse_and_refuses_singular_or_ragged_matrices() {
+        let a = [
+            vec![4.0, 1.0, 0.5],
+            vec![1.0, 3.0, 0.2],
+            vec![0.5, 0.2, 2.0],
+        ];
+        let inv = invert(&a).unwrap();
+        for (i, a_row) in a.iter().enumerate() {
+            for j in 0..3 {
+                let p: f64 = (0..3).map(|k| a_row[k] * inv[k * 3 + j]).sum();
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((p - want).abs() < 1e-14, "({i}, {j}): {p}");
+            }
+        }
+        assert!(invert(&[vec![1.0, 2.0], vec![2.0, 4.0]]).is_none());
+        assert!(invert(&[vec![1.0, 2.0], vec![3.0]]).is_none());
+    }
+
+    #[test]
+    fn balancing_is_an_exact_similarity_by_powers_of_two() {
+        // Units as far apart as m and Pa.
+        let original = [0.0, 1.0, 0.0, -1e4, -10.0, 1e-9, 0.0, 1e9, -100.0];
+        let mut a = original;
+        let d = balance(&mut a, 3);
+        assert!(d.iter().any(|v| *v != 1.0), "{d:?}");
+        assert!(d.iter().all(|v| v.log2().fract() == 0.0), "{d:?}");
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_eq!(a[i * 3 + j], original[i * 3 + j] * d[j] / d[i]);
+            }
+        }
+    }
+}
