@@ -63,7 +63,7 @@
 //! form). The emulated system always uses `C_i s`.
 
 use crate::analyze::{AnalysisOptions, ResponseSpec, Signal};
-use crate::error::{setup_error, AnalysisError, Result};
+use crate::error::{setup_error, Result};
 use crate::examples::{aero_structure, two_dof_structure, tyre_structure, Structure};
 use crate::filter_file::FilterFile;
 use crate::poly::Rational;
