@@ -30,10 +30,11 @@ pub mod setup;
 pub mod system;
 
 pub use error::{AnalysisError, Result};
+pub use metrics::Stability;
 pub use position_servo::PositionServoActuator;
 pub use reference_actuator::ServoHydraulicActuator;
 pub use response::{CommandFilter, ResponseSource};
 pub use system::{
     ActuatorControl, Actuators, ImpedanceLocation, Interface, Loop, LoopDescription, LoopPoint,
-    MechanicalPart, MilSystem, Stability, VelocityEstimate,
+    MechanicalPart, MilSystem, VelocityEstimate,
 };

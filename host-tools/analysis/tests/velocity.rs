@@ -5,8 +5,9 @@
 use mil_analysis::examples::{force_actuators, TyreExample};
 use mil_analysis::metrics::{characteristic_loci, log_grid, margins};
 use mil_analysis::setup::{Setup, SetupFile};
-use mil_analysis::system::{ActuatorControl, Loop, MilSystem, Stability, VelocityEstimate};
+use mil_analysis::system::{ActuatorControl, Loop, MilSystem, VelocityEstimate};
 use mil_analysis::ServoHydraulicActuator;
+use mil_analysis::Stability;
 use model_core::{TyreParams, VelocityEstimator, VelocityFilterCoefficients};
 use num_complex::Complex64;
 use std::f64::consts::TAU;
