@@ -148,7 +148,7 @@ pub struct StatusReport {
     pub rate_limited: u8,
     /// `true` while the communication watchdog sees the link as lost.
     pub link_lost: bool,
-    /// Where the running calibration came from at boot ([`crate::store::Source`] as `u8`).
+    /// Where the running calibration came from at boot ([`crate::calibration::Source`] as `u8`).
     pub calibration_source: u8,
     /// The counters.
     pub counters: Counters,
@@ -216,7 +216,7 @@ pub struct Application {
     amplitude_limited: u8,
     rate_limited: u8,
     counters: Counters,
-    calibration_source: crate::store::Source,
+    calibration_source: crate::calibration::Source,
 }
 
 impl Application {
@@ -237,7 +237,7 @@ impl Application {
             amplitude_limited: 0,
             rate_limited: 0,
             counters: Counters::default(),
-            calibration_source: crate::store::Source::Defaults,
+            calibration_source: crate::calibration::Source::Defaults,
         })
     }
 
@@ -267,26 +267,61 @@ impl Application {
     }
 
     /// Where the running calibration came from at boot.
-    pub fn calibration_source(&self) -> crate::store::Source {
+    pub fn calibration_source(&self) -> crate::calibration::Source {
         self.calibration_source
     }
 
     /// Boot: runs the stored page `words` (already checked by [`crate::store::Store::load`])
     /// and records `source`; a page that does not install leaves the defaults running and
-    /// records [`crate::store::Source::Refused`]. Returns the source recorded.
+    /// records [`crate::calibration::Source::Refused`]. Returns the source recorded.
     pub fn boot_with(
         &mut self,
-        source: crate::store::Source,
+        source: crate::calibration::Source,
         words: Option<&[u32; crate::calibration::SLOTS]>,
-    ) -> crate::store::Source {
+    ) -> crate::calibration::Source {
         self.calibration_source = match words {
             Some(words) => match crate::calibration::decode_page(words) {
                 Ok((prepared, settings)) if self.install(prepared, settings) == code::OK => source,
-                _ => crate::store::Source::Refused,
+                _ => crate::calibration::Source::Refused,
             },
             None => source,
         };
         self.calibration_source
+    }
+
+    /// Mirrors the running values into the working page ([`crate::calibration::WORKING`]),
+    /// at start and after every change, whichever path made it.
+    pub fn mirror_to_working_page(&self) {
+        crate::calibration::mirror(
+            self.params(),
+            &crate::calibration::Settings {
+                status_period: self.status_period,
+                watchdog: self.watchdog.limit,
+            },
+        );
+    }
+
+    /// Stores the signals of the step just made into the measurement block
+    /// ([`crate::calibration::MEASUREMENT`]; call it after the demand frame is queued: it
+    /// never delays the demand).
+    pub fn record_step(&self) {
+        use crate::calibration::{meas, store_f32, store_u32};
+        let input = self.input();
+        let status = self.status();
+        store_f32(
+            meas::POSITION,
+            input.position.first().copied().unwrap_or(0.0),
+        );
+        store_f32(meas::ROAD, input.road.first().copied().unwrap_or(0.0));
+        store_f32(
+            meas::DEMAND,
+            self.controller().demand().first().copied().unwrap_or(0.0),
+        );
+        store_u32(meas::MODE, status.mode as u32);
+        store_u32(meas::FAULT, u32::from(status.fault));
+        store_u32(meas::STEPS, status.counters.steps);
+        store_u32(meas::MISSED, status.counters.missed);
+        store_u32(meas::MALFORMED, status.counters.malformed);
     }
 
     /// The counters.
@@ -673,7 +708,7 @@ mod tests {
     /// The application behind the calibration authority, with the calibration unlocked
     /// (Command frames as an XCP-unlocked session sends them).
     fn commanded(a: Application) -> crate::xcp::Target<Application> {
-        crate::calibration::mirror_application(&a);
+        a.mirror_to_working_page();
         crate::xcp::Target::new(a)
     }
 
@@ -727,7 +762,7 @@ mod tests {
             };
             assert_eq!(t.command_frame(&k, false), code::OK);
         }
-        crate::calibration::mirror_application(&app());
+        app().mirror_to_working_page();
     }
 
     #[test]
@@ -785,7 +820,7 @@ mod tests {
         assert_eq!(t.app_mut().counters().rejected, rejected + 4);
         // Parameter writes given to the application directly are refused.
         assert_eq!(t.app_mut().command(&stiffness), code::UNKNOWN_INDEX);
-        crate::calibration::mirror_application(&app());
+        app().mirror_to_working_page();
     }
 
     /// Issue 19: the watchdog on the board's timing (TIM2 ticks at the sample rate, at any

@@ -35,7 +35,6 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use model_core::controller::SAFE_RAMP_RATE;
 use model_core::{limits, tyre, velocity, ParamError, Range, MAX_SECTIONS};
 
-use crate::application::Application;
 use crate::config::{
     default_params, Params, Prepared, DT, STATUS_PERIOD_RANGE, STATUS_PERIOD_SAMPLES,
     WATCHDOG_OFF_ALLOWED, WATCHDOG_SAMPLES, WATCHDOG_SAMPLES_RANGE,
@@ -680,6 +679,22 @@ pub const MEAS_ITEMS: [MeasItem; MEASUREMENTS] = [
     },
 ];
 
+/// Where the running calibration came from at boot (measurement `calibration_source`,
+/// [`meas::CAL_SOURCE`]; status frame `CalibrationSource`): chosen by
+/// [`crate::store::boot`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Source {
+    /// The build's defaults: nothing is stored.
+    Defaults = 0,
+    /// The stored page.
+    Stored = 1,
+    /// The build's defaults: a stored page was refused (format, layout, CRC or validation).
+    Refused = 2,
+    /// The build's defaults: the storage could not be read.
+    Unreadable = 3,
+}
+
 /// Slot of each measurement in [`MEASUREMENT`].
 pub mod meas {
     /// Position (m).
@@ -765,18 +780,6 @@ pub fn note_change(result: u8) {
     }
 }
 
-/// Records the outcome of a calibration store: [`meas::CAL_STORES`] counts the stored ones,
-/// [`meas::CAL_STORE_ERROR`] keeps 0 or the [`crate::store::StoreError`] of the last one.
-pub fn note_store(result: Result<(), crate::store::StoreError>) {
-    match result {
-        Ok(()) => {
-            count(meas::CAL_STORES);
-            store_u32(meas::CAL_STORE_ERROR, 0);
-        }
-        Err(e) => store_u32(meas::CAL_STORE_ERROR, e as u32),
-    }
-}
-
 /// The measurement block's words now.
 pub fn measurement_words() -> [u32; MEASUREMENTS] {
     core::array::from_fn(|i| MEASUREMENT.get(i).map_or(0, |w| w.load(Ordering::Relaxed)))
@@ -792,39 +795,6 @@ pub fn working_address() -> u32 {
 /// region (32-bit on the board, see [`working_address`]).
 pub fn measurement_address() -> u32 {
     MEASUREMENT.as_ptr() as usize as u32
-}
-
-/// Stores the signals of the step `app` has just made into [`MEASUREMENT`] (call it after
-/// the demand frame is queued: it never delays the demand).
-pub fn record_step(app: &Application) {
-    let input = app.input();
-    let status = app.status();
-    store_f32(
-        meas::POSITION,
-        input.position.first().copied().unwrap_or(0.0),
-    );
-    store_f32(meas::ROAD, input.road.first().copied().unwrap_or(0.0));
-    store_f32(
-        meas::DEMAND,
-        app.controller().demand().first().copied().unwrap_or(0.0),
-    );
-    store_u32(meas::MODE, status.mode as u32);
-    store_u32(meas::FAULT, u32::from(status.fault));
-    store_u32(meas::STEPS, status.counters.steps);
-    store_u32(meas::MISSED, status.counters.missed);
-    store_u32(meas::MALFORMED, status.counters.malformed);
-}
-
-/// Mirrors the running values of `app` into [`WORKING`] (at start and after every change,
-/// whichever path made it).
-pub fn mirror_application(app: &Application) {
-    mirror(
-        app.params(),
-        &Settings {
-            status_period: app.status_period(),
-            watchdog: app.watchdog().limit,
-        },
-    );
 }
 
 #[cfg(test)]

@@ -24,13 +24,23 @@ use model_core::Mode;
 use crate::application::{
     Application, Command, Demand, Measurement, MeasurementAux, Output, StatusReport,
 };
-use crate::config::XCP_COMMAND_ID;
+use crate::config::{XCP_COMMAND_ID, XCP_RESPONSE_ID};
 
 /// The measurement counter's modulus (the DBC's `Counter` is 8 bits).
 pub const COUNTER_MODULUS: u32 = 256;
 
 /// The frame layout: the DBC's base ID (0x100) and factors.
 pub const LAYOUT: Layout = Layout::DEFAULT;
+
+// The XCP frames (`config`'s build-time IDs) lie above the MiL range (lower priority on the
+// bus) and differ.
+const _: () = {
+    let (_, last) = LAYOUT.id_range();
+    assert!(XCP_COMMAND_ID > last);
+    assert!(XCP_RESPONSE_ID > last);
+    assert!(XCP_COMMAND_ID <= 0x7FF && XCP_RESPONSE_ID <= 0x7FF);
+    assert!(XCP_COMMAND_ID != XCP_RESPONSE_ID);
+};
 
 /// Where frames go: bxCAN on the board, SLCAN lines over USART1 in QEMU.
 pub trait Transport {

@@ -247,7 +247,7 @@ mod app {
         app: &mut impl rtic::Mutex<T = Application>,
         daq: &mut Sender<'static, StepSample, DAQ_QUEUE>,
     ) {
-        app.lock(|a| calibration::record_step(a));
+        app.lock(|a| a.record_step());
         if DAQ_RUNNING.load(Ordering::Relaxed) && daq.try_send(StepSample::take()).is_err() {
             DAQ_SAMPLES_DROPPED.fetch_add(1, Ordering::Relaxed);
         }

@@ -26,7 +26,7 @@ use embedded_storage_async::nor_flash::{
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
 
-use crate::calibration::{self, ITEMS, SLOTS};
+use crate::calibration::{self, meas, Source, ITEMS, SLOTS};
 
 /// The record's format tag: "MIL" and format version 1.
 pub const FORMAT: u32 = u32::from_le_bytes(*b"MIL\x01");
@@ -38,21 +38,6 @@ pub const RECORD_BYTES: usize = 4 * RECORD_WORDS;
 const KEY: u8 = 0;
 /// The work buffer: key and record, rounded up to the largest flash word the crate supports.
 const BUFFER_BYTES: usize = (1 + RECORD_BYTES).div_ceil(32) * 32;
-
-/// Where the running calibration came from at boot (measurement `calibration_source`, status
-/// frame `CalibrationSource`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub enum Source {
-    /// The build's defaults: nothing is stored.
-    Defaults = 0,
-    /// The stored page.
-    Stored = 1,
-    /// The build's defaults: a stored page was refused (format, layout, CRC or validation).
-    Refused = 2,
-    /// The build's defaults: the storage could not be read.
-    Unreadable = 3,
-}
 
 /// What [`Store::load`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -226,19 +211,32 @@ pub async fn boot<F: NorFlash>(
         _ => None,
     };
     let source = app.boot_with(loaded.source(), words);
-    calibration::mirror_application(app);
-    calibration::store_u32(calibration::meas::CAL_SOURCE, source as u32);
+    app.mirror_to_working_page();
+    calibration::store_u32(meas::CAL_SOURCE, source as u32);
     source
 }
 
 /// Stores the working page as it is now into `store` and records the outcome in the
-/// measurement block ([`calibration::note_store`]). The XCP task calls it for a pending
+/// measurement block ([`note_store`]). The XCP task calls it for a pending
 /// SET_REQUEST STORE_CAL_REQ, then tells the slave
 /// ([`mil_xcp::Slave::store_finished`]).
 pub async fn store_working<F: NorFlash>(store: &mut Store<F>) -> Result<(), StoreError> {
     let result = store.save(&calibration::working_words()).await;
-    calibration::note_store(result);
+    note_store(result);
     result
+}
+
+/// Records the outcome of a calibration store in the measurement block:
+/// [`meas::CAL_STORES`] counts the stored ones, [`meas::CAL_STORE_ERROR`] keeps 0 or the
+/// [`StoreError`] of the last one.
+pub fn note_store(result: Result<(), StoreError>) {
+    match result {
+        Ok(()) => {
+            calibration::count(meas::CAL_STORES);
+            calibration::store_u32(meas::CAL_STORE_ERROR, 0);
+        }
+        Err(e) => calibration::store_u32(meas::CAL_STORE_ERROR, e as u32),
+    }
 }
 
 /// Runs a future that never waits (flash operations that complete at once, as on the board

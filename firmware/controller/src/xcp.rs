@@ -91,7 +91,7 @@ pub struct StepSample {
 }
 
 impl StepSample {
-    /// The measurement block now (call it right after `calibration::record_step`).
+    /// The measurement block now (call it right after [`Application::record_step`]).
     pub fn take() -> Self {
         let words = calibration::measurement_words();
         let steps = words.get(meas::STEPS).copied().unwrap_or(0);
@@ -352,7 +352,7 @@ impl<A: AppAccess> Calibration for Target<A> {
             .app
             .with(|a| a.controller().mode() == model_core::Mode::Running);
         if running {
-            calibration::note_store(Err(crate::store::StoreError::Running));
+            crate::store::note_store(Err(crate::store::StoreError::Running));
             Err(StoreRefused::NotNow)
         } else {
             Ok(())
@@ -442,7 +442,7 @@ mod tests {
     impl Session {
         fn new() -> Self {
             let app = Application::new(256).expect("app");
-            calibration::mirror_application(&app);
+            app.mirror_to_working_page();
             Self {
                 slave: slave(),
                 target: Target::new(app),
@@ -606,7 +606,7 @@ mod tests {
         /// Back to the defaults on both pages for the other tests.
         fn restore(&mut self) {
             let app = Application::new(256).expect("app");
-            calibration::mirror_application(&app);
+            app.mirror_to_working_page();
         }
     }
 
@@ -669,7 +669,7 @@ mod tests {
         let _turn = test_lock();
         let mut s = Session::new();
         s.target.app.switch_watchdog_off();
-        calibration::mirror_application(&s.target.app);
+        s.target.app.mirror_to_working_page();
         s.connect_and_unlock();
         assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
         let before = (s.running(), calibration::working_words());
@@ -739,7 +739,8 @@ mod tests {
     /// says so.
     #[test]
     fn a_stored_calibration_survives_a_power_cycle() {
-        use crate::store::{self, complete, RamFlash, Source, Store};
+        use crate::calibration::Source;
+        use crate::store::{self, complete, RamFlash, Store};
         let _turn = test_lock();
         let mut flash = Store::new(RamFlash::<4, 1024>::new(), 0..4096).expect("range");
         let mut s = Session::new();
@@ -845,14 +846,14 @@ mod tests {
             counter: 0,
         };
         app.on_measurement(&m).expect("step");
-        calibration::record_step(&app);
+        app.record_step();
         let sample = StepSample::take();
         assert_eq!(sample.words[meas::STEPS], 1);
         assert_eq!(sample.time_us, STEP_PERIOD_US);
         // The copy stays what it was when the block changes (the next step).
         app.on_measurement(&crate::application::Measurement { counter: 1, ..m })
             .expect("step");
-        calibration::record_step(&app);
+        app.record_step();
         let mut out = [0u8; 6];
         sample.read_measurement(4 * meas::STEPS, &mut out);
         assert_eq!(out, [1, 0, 0, 0, 0, 0], "bytes past the block read 0");

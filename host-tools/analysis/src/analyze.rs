@@ -4,9 +4,9 @@
 use crate::error::{setup_error, Result};
 use crate::metrics::{
     band_errors, characteristic_loci, log_grid, margins, max_singular_value, resonances, BandError,
-    Margins, Resonance,
+    Margins, Resonance, Stability,
 };
-use crate::system::{CMatrix, Loop, LoopPoint, MilSystem, Stability};
+use crate::system::{CMatrix, Loop, LoopPoint, MilSystem};
 use num_complex::Complex64;
 use serde::Serialize;
 

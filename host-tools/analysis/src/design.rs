@@ -50,9 +50,11 @@
 //! discretised and its figures (including closed-loop stability) computed on the cascade.
 
 use crate::error::{AnalysisError, Result};
-use crate::metrics::{characteristic_loci, linear_grid, log_grid, margins, max_singular_value};
+use crate::metrics::{
+    characteristic_loci, linear_grid, log_grid, margins, max_singular_value, Stability,
+};
 use crate::response::CommandFilter;
-use crate::system::{Loop, MilSystem, Stability};
+use crate::system::{Loop, MilSystem};
 use mil_discretise::TransferFunction;
 use model_core::CascadeCoefficients;
 use nalgebra::{DMatrix, DVector};

@@ -32,8 +32,9 @@ pub mod setup;
 pub mod system;
 
 pub use error::{AnalysisError, Result};
+pub use metrics::Stability;
 pub use response::{CommandFilter, LinearActuator, ResponseSource};
 pub use system::{
     ActuatorControl, Actuators, ImpedanceLocation, Interface, Loop, LoopDescription, LoopPoint,
-    MechanicalPart, MilSystem, Stability, VelocityEstimate,
+    MechanicalPart, MilSystem, VelocityEstimate,
 };

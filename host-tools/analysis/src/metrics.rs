@@ -1,7 +1,8 @@
-//! Figures of frequency responses: frequency grids, stability margins, resonance peaks,
-//! band errors between two responses, and peaks of the control sensitivity.
+//! Figures of frequency responses: frequency grids, stability margins and the closed-loop
+//! stability verdict, resonance peaks, band errors between two responses, and peaks of the
+//! control sensitivity.
 
-use crate::system::CMatrix;
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::Serialize;
 
@@ -38,7 +39,7 @@ pub fn unwrapped_phase_deg(values: &[Complex64]) -> Vec<f64> {
 }
 
 /// Eigenvalues of a small complex matrix (closed form up to 2 × 2, Schur form above).
-pub fn eigenvalues(m: &CMatrix) -> Vec<Complex64> {
+pub fn eigenvalues(m: &DMatrix<Complex64>) -> Vec<Complex64> {
     match m.nrows() {
         0 => Vec::new(),
         1 => vec![m[(0, 0)]],
@@ -57,7 +58,7 @@ pub fn eigenvalues(m: &CMatrix) -> Vec<Complex64> {
 
 /// Characteristic loci: the eigenvalues of the open-loop matrices along the grid, each locus
 /// continued by nearest-neighbour matching. `loci[k][i]` is locus `k` at grid point `i`.
-pub fn characteristic_loci(open_loop: &[CMatrix]) -> Vec<Vec<Complex64>> {
+pub fn characteristic_loci(open_loop: &[DMatrix<Complex64>]) -> Vec<Vec<Complex64>> {
     let mut loci: Vec<Vec<Complex64>> = Vec::new();
     for (i, l) in open_loop.iter().enumerate() {
         let mut eig = eigenvalues(l);
@@ -78,6 +79,20 @@ pub fn characteristic_loci(open_loop: &[CMatrix]) -> Vec<Vec<Complex64>> {
         }
     }
     loci
+}
+
+/// Closed-loop stability of a loop, from the argument principle
+/// ([`crate::system::MilSystem::stability`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stability {
+    /// No closed-loop pole right of the contour.
+    Stable,
+    /// This many closed-loop poles right of the contour.
+    Unstable(u32),
+    /// Not determined (a measured table cannot be evaluated off the imaginary axis, or the
+    /// loop gain does not fall below 0.1 by the end of the contour).
+    Unknown,
 }
 
 /// Gain and phase margins of a loop (negative-feedback convention, return difference
@@ -108,14 +123,9 @@ impl Margins {
     /// The gain margin to report and its frequency: the upper margin, except for an
     /// unstable loop, where it is the gain-reduction margin (below 1), so that an unstable
     /// loop never shows a margin above 1.
-    pub fn reported_gain_margin(
-        &self,
-        stability: crate::system::Stability,
-    ) -> (Option<f64>, Option<f64>) {
+    pub fn reported_gain_margin(&self, stability: Stability) -> (Option<f64>, Option<f64>) {
         match stability {
-            crate::system::Stability::Unstable(_) => {
-                (self.gain_reduction_margin, self.gain_reduction_margin_hz)
-            }
+            Stability::Unstable(_) => (self.gain_reduction_margin, self.gain_reduction_margin_hz),
             _ => (self.gain_margin, self.gain_margin_hz),
         }
     }
@@ -341,7 +351,7 @@ pub fn band_errors(
 }
 
 /// Largest singular value of a small complex matrix (the gain of a matrix response).
-pub fn max_singular_value(m: &CMatrix) -> f64 {
+pub fn max_singular_value(m: &DMatrix<Complex64>) -> f64 {
     if m.nrows() == 1 && m.ncols() == 1 {
         return m[(0, 0)].norm();
     }
@@ -462,7 +472,7 @@ mod tests {
 
     #[test]
     fn eigenvalues_of_a_2x2_and_3x3() {
-        let m = CMatrix::from_row_slice(
+        let m = DMatrix::from_row_slice(
             2,
             2,
             &[
@@ -475,7 +485,7 @@ mod tests {
         let mut e: Vec<f64> = eigenvalues(&m).iter().map(|v| v.re).collect();
         e.sort_by(|a, b| a.partial_cmp(b).unwrap());
         assert!((e[0] - 1.0).abs() < 1e-12 && (e[1] - 3.0).abs() < 1e-12);
-        let d = CMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![
+        let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![
             Complex64::new(1.0, 1.0),
             Complex64::new(-2.0, 0.0),
             Complex64::new(0.5, -3.0),

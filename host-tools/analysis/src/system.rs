@@ -56,6 +56,7 @@
 //! is the same with `P = I`, `R = 0`, `G = 1`, `n = 0` and `V(s) = s`.
 
 use crate::error::{setup_error, AnalysisError, Result};
+use crate::metrics::Stability;
 use crate::response::{CommandFilter, ResponseSource};
 use model_core::VelocityFilterCoefficients;
 use nalgebra::{DMatrix, DVector};
@@ -873,19 +874,6 @@ impl MilSystem {
         let x = solve(&a, &rhs, "coupled system", f)?;
         Ok((x.rows(nn, np).into_owned(), x.rows(0, nn).into_owned()))
     }
-}
-
-/// Closed-loop stability of a loop, from the argument principle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Stability {
-    /// No closed-loop pole right of the contour.
-    Stable,
-    /// This many closed-loop poles right of the contour.
-    Unstable(u32),
-    /// Not determined (a measured table cannot be evaluated off the imaginary axis, or the
-    /// loop gain does not fall below 0.1 by the end of the contour).
-    Unknown,
 }
 
 /// Counts the zeros of `d(s)` right of the line `Re s = σ`, by the argument principle along

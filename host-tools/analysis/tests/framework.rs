@@ -173,10 +173,8 @@ fn impossible_configurations_are_refused() {
 /// count must switch from stable to one unstable pair exactly when the gain margin passes 1.
 #[test]
 fn stability_count_agrees_with_the_delay_integrator_margin() {
-    use mil_analysis::metrics::{characteristic_loci, margins};
-    use mil_analysis::system::{
-        ExternalInput, Interface, MechanicalPart, Stability, VelocityEstimate,
-    };
+    use mil_analysis::metrics::{characteristic_loci, margins, Stability};
+    use mil_analysis::system::{ExternalInput, Interface, MechanicalPart, VelocityEstimate};
     let build = |k: f64| {
         let physical = MechanicalPart::new(
             vec!["x".into()],
@@ -238,7 +236,7 @@ fn stability_count_agrees_with_the_delay_integrator_margin() {
 /// (one complex pair) and a negative stiffness that outweighs the rest (one real pole).
 #[test]
 fn emulated_stability_from_the_coupled_dynamic_stiffness() {
-    use mil_analysis::system::Stability;
+    use mil_analysis::Stability;
     for (location, control, number) in [
         (ImpedanceLocation::Physical, ActuatorControl::Position, 1),
         (ImpedanceLocation::Physical, ActuatorControl::Force, 2),

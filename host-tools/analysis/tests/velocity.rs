@@ -5,7 +5,8 @@
 use mil_analysis::examples::{force_actuators, tyre_structure};
 use mil_analysis::metrics::{characteristic_loci, log_grid, margins};
 use mil_analysis::setup::{Setup, SetupFile};
-use mil_analysis::system::{ActuatorControl, Loop, MilSystem, Stability, VelocityEstimate};
+use mil_analysis::system::{ActuatorControl, Loop, MilSystem, VelocityEstimate};
+use mil_analysis::Stability;
 use mil_params::ServoHydraulicActuator;
 use mil_params::TyreExample;
 use model_core::{TyreParams, VelocityEstimator, VelocityFilterCoefficients};

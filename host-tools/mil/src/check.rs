@@ -86,10 +86,7 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
     let what = match kind {
         FileKind::Structure => {
             let m = Model::read(path).map_err(|e| anyhow!("{e}"))?;
-            let frequencies: Vec<f64> = mil_structure::plausible::modes(&m)
-                .iter()
-                .map(|mode| mode.frequency_hz)
-                .collect();
+            let frequencies: Vec<f64> = m.modes().iter().map(|mode| mode.frequency_hz).collect();
             format!(
                 "structure {:?}: {} DOF(s), {} element(s), {} input(s), {} output(s){}{}",
                 m.file.name,

@@ -54,6 +54,7 @@
 //! (N or N·m, default 0), e.g. a force offset.
 
 use crate::effects::{EffectKind, ElementLaw, InputLaw};
+use crate::plausible::{self, LoadedElement, Mode};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -647,7 +648,7 @@ impl Model {
         for fx in &file.effects {
             model.add_effect(fx)?;
         }
-        crate::plausible::check(&model)?;
+        model.check_plausible()?;
         Ok(model)
     }
 
@@ -803,6 +804,25 @@ impl Model {
     /// The model file's text with the current parameters and effects.
     pub fn to_toml(&self) -> String {
         toml::to_string(&self.to_file()).unwrap_or_else(|e| format!("# not serialisable: {e}\n"))
+    }
+
+    /// The undamped modes the springs restrain (small-signal stiffnesses, [`Model::linearised`]),
+    /// by ascending frequency; unrestrained directions (a free mass) have none
+    /// ([`plausible::modes`]).
+    pub fn modes(&self) -> Vec<Mode> {
+        plausible::modes(self.linearised().stiffness, &self.mass)
+    }
+
+    /// The physical plausibility every structure must pass ([`crate::plausible`]): the static
+    /// compressions under the weights, then the natural frequencies.
+    fn check_plausible(&self) -> Result<()> {
+        let elements = self.elements.iter().map(|e| LoadedElement {
+            name: &e.name,
+            preload_n: e.preload_n,
+            stiffness_n_per_m: e.law.linearised().0,
+        });
+        plausible::static_compression(self.file.gravity_m_per_s2, elements)?;
+        plausible::natural_frequencies(&self.modes(), &self.dofs, &self.mass)
     }
 
     /// The linearised structure (see [`Linearised`]).

@@ -1,7 +1,7 @@
 //! Physical plausibility of a structure: the checks that catch unit mistakes (a stiffness in
 //! N/mm, a mass in g, a load in kg) where the file alone is consistent. Every command that
-//! reads a structure runs them ([`crate::Model::new`]), so `mil check` accepts exactly what
-//! the commands accept.
+//! reads a structure runs them ([`crate::Model::new`] hands them its numbers), so `mil check`
+//! accepts exactly what the commands accept.
 //!
 //! - Static compression: with gravity, an element whose static compression under the
 //!   weights (`preload_n / stiffness_n_per_m`) exceeds [`MAX_STATIC_COMPRESSION_M`] is refused,
@@ -14,8 +14,8 @@
 //! stiff fixture kilohertz modes): they refuse what no specimen on a servo-hydraulic rig can
 //! be, not what is merely unusual.
 
-use crate::model::Model;
 use crate::{Error, Result};
+use nalgebra::DMatrix;
 
 /// Largest static compression (m) of an element under the weights: half a metre, beyond
 /// any suspension's or tyre's travel.
@@ -25,17 +25,28 @@ pub const MIN_NATURAL_FREQUENCY_HZ: f64 = 0.01;
 /// Highest natural frequency (Hz): 50 kHz, beyond any rig's control rate.
 pub const MAX_NATURAL_FREQUENCY_HZ: f64 = 50e3;
 
-/// Checks `model` (see the module documentation).
-///
-/// # Errors
-/// The first implausible quantity, with the fields and the likely unit mistake.
-pub fn check(model: &Model) -> Result<()> {
-    static_compression(model)?;
-    natural_frequencies(model)
+/// An element as the static-compression check sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoadedElement<'a> {
+    /// Name.
+    pub name: &'a str,
+    /// Static force (N, compression) at equilibrium.
+    pub preload_n: f64,
+    /// Small-signal stiffness (N/m) about the equilibrium.
+    pub stiffness_n_per_m: f64,
 }
 
-fn static_compression(model: &Model) -> Result<()> {
-    let Some(g) = model.file.gravity_m_per_s2 else {
+/// Checks gravity and the static compression of each element under the weights (see the
+/// module documentation); without gravity there is nothing to check.
+///
+/// # Errors
+/// A gravity that is no gravity in m/s², or the first element compressed beyond
+/// [`MAX_STATIC_COMPRESSION_M`], with the likely unit mistake.
+pub fn static_compression<'a>(
+    gravity_m_per_s2: Option<f64>,
+    elements: impl IntoIterator<Item = LoadedElement<'a>>,
+) -> Result<()> {
+    let Some(g) = gravity_m_per_s2 else {
         return Ok(());
     };
     if g > 0.0 && !(1.0..=30.0).contains(&g) {
@@ -44,8 +55,8 @@ fn static_compression(model: &Model) -> Result<()> {
              in g?)"
         )));
     }
-    for e in &model.elements {
-        let (k, _) = e.law.linearised();
+    for e in elements {
+        let k = e.stiffness_n_per_m;
         if k <= 0.0 || e.preload_n == 0.0 {
             continue;
         }
@@ -74,13 +85,14 @@ pub struct Mode {
     pub dof: usize,
 }
 
-/// The undamped modes the springs restrain (small-signal stiffnesses, [`Model::linearised`]),
-/// by ascending frequency; unrestrained directions (a free mass) have none.
-pub fn modes(model: &Model) -> Vec<Mode> {
-    let n = model.n();
-    let l = model.linearised();
-    let scale: Vec<f64> = model.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
-    let mut a = l.stiffness;
+/// The undamped modes of the stiffness matrix `stiffness` (N/m, N·m/rad; the small-signal
+/// one, [`crate::model::Linearised::stiffness`]) on the diagonal masses `mass_kg` (kg, kg·m²),
+/// by ascending frequency; unrestrained directions (a free mass) have none. A model's are
+/// [`crate::Model::modes`].
+pub fn modes(stiffness: DMatrix<f64>, mass_kg: &[f64]) -> Vec<Mode> {
+    let n = mass_kg.len();
+    let scale: Vec<f64> = mass_kg.iter().map(|m| 1.0 / m.sqrt()).collect();
+    let mut a = stiffness;
     for i in 0..n {
         for j in 0..n {
             a[(i, j)] *= scale[i] * scale[j];
@@ -112,17 +124,22 @@ pub fn modes(model: &Model) -> Vec<Mode> {
     modes
 }
 
-fn natural_frequencies(model: &Model) -> Result<()> {
-    for Mode {
+/// Checks that every mode of `modes` (on DOFs named `dofs` with masses `mass_kg`) lies
+/// between [`MIN_NATURAL_FREQUENCY_HZ`] and [`MAX_NATURAL_FREQUENCY_HZ`].
+///
+/// # Errors
+/// The first mode outside, naming the DOF that moves most in it and the likely unit mistake.
+pub fn natural_frequencies(modes: &[Mode], dofs: &[String], mass_kg: &[f64]) -> Result<()> {
+    for &Mode {
         frequency_hz: f,
         dof,
-    } in modes(model)
+    } in modes
     {
         if (MIN_NATURAL_FREQUENCY_HZ..=MAX_NATURAL_FREQUENCY_HZ).contains(&f) {
             continue;
         }
-        let name = &model.dofs[dof];
-        let mass = model.mass[dof];
+        let name = &dofs[dof];
+        let mass = mass_kg[dof];
         let hint = if f < MIN_NATURAL_FREQUENCY_HZ {
             "a stiffness in N/mm, or a mass in g?"
         } else {

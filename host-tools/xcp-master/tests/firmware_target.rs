@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use mil_a2l::{Block, Layout};
 use mil_firmware::application::Application;
-use mil_firmware::calibration::{self, MEASUREMENT_BYTES, PAGE_BYTES};
+use mil_firmware::calibration::{MEASUREMENT_BYTES, PAGE_BYTES};
 use mil_firmware::config::TYRE;
 use mil_firmware::xcp::Target;
 use mil_xcp::mock::{MockPlatform, TEST_SECRET};
@@ -40,7 +40,7 @@ fn the_firmwares_own_checks_answer_through_the_master() {
     })
     .unwrap();
     let app = Application::new(256).unwrap();
-    calibration::mirror_application(&app);
+    app.mirror_to_working_page();
     let board = SimBoard::new(
         slave,
         Target::new(app),
