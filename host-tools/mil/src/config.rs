@@ -632,7 +632,7 @@ impl Config {
                      follows, e.g. {input} = \"road_0\", or \"fixed\" (the rig's bed)"
                 )
             })?;
-            match crate::setup::road_channel(road, channels, "physical.roads", input)? {
+            match road_channel(road, channels, "physical.roads", input)? {
                 Some(c) => roads.push(c),
                 None => {
                     specimen.inputs.remove(j);
@@ -708,6 +708,29 @@ impl SubstructureSection {
         }
         Ok(p)
     }
+}
+
+/// The channel of a road name (`"road_c"`), or `None` for `"fixed"`.
+pub(crate) fn road_channel(
+    road: &str,
+    channels: usize,
+    what: &str,
+    input: &str,
+) -> Result<Option<usize>> {
+    if road == "fixed" {
+        return Ok(None);
+    }
+    road.strip_prefix("road_")
+        .and_then(|c| c.parse::<usize>().ok())
+        .filter(|c| *c < channels)
+        .map(Some)
+        .with_context(|| {
+            format!(
+                "{what}: {input} = {road:?}: name the run's road it follows, road_0 to road_{}, \
+                 or \"fixed\"",
+                channels.saturating_sub(1)
+            )
+        })
 }
 
 #[cfg(test)]

@@ -797,7 +797,9 @@ impl SetUp {
                     input.name, input.name
                 )
             })?;
-            let Some(c) = road_channel(road, channels, "numerical.roads", &input.name)? else {
+            let Some(c) =
+                crate::config::road_channel(road, channels, "numerical.roads", &input.name)?
+            else {
                 continue;
             };
             if c == 0 {
@@ -856,29 +858,6 @@ impl SetUp {
             road_0,
         ))
     }
-}
-
-/// The channel of a road name (`"road_c"`), or `None` for `"fixed"`.
-pub(crate) fn road_channel(
-    road: &str,
-    channels: usize,
-    what: &str,
-    input: &str,
-) -> Result<Option<usize>> {
-    if road == "fixed" {
-        return Ok(None);
-    }
-    road.strip_prefix("road_")
-        .and_then(|c| c.parse::<usize>().ok())
-        .filter(|c| *c < channels)
-        .map(Some)
-        .with_context(|| {
-            format!(
-                "{what}: {input} = {road:?}: name the run's road it follows, road_0 to road_{}, \
-                 or \"fixed\"",
-                channels.saturating_sub(1)
-            )
-        })
 }
 
 /// The displacement inputs of the structure files `parts` (relative to `base`), in order.

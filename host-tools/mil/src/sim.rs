@@ -222,9 +222,9 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
         links,
         filter_sections,
     } = experiment::run(&experiment, progress)?;
+    let elapsed = started.elapsed().as_secs_f64().max(1e-9);
     let road_names = experiment.setting.input_names();
     let channel_names = experiment.setting.channel_names();
-    let elapsed = started.elapsed().as_secs_f64().max(1e-9);
     let skip = settle_samples(config, histories.len());
     let band = |x: &[f64]| lowpass2_zero_phase(x, config.compare.f_max_hz, 1.0 / fs);
     let channel = (0..channels)
