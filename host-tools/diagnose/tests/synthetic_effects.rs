@@ -313,7 +313,7 @@ fn check_hysteresis(d: &Diagnosis, bw: &BoucWen) {
 /// apart lie in a few seconds of the record. The model is the linear part exact. Hysteresis
 /// alone is named and the gap falls below the recalibrated linear model's. (This record is
 /// refined by output error on the whole of it, so the method before the refinement's
-/// windows followed the outputs' power passes too; `window_tests` in `diagnose.rs` test
+/// windows followed the outputs' power passes too; `window_tests` in `diagnose/windows.rs` test
 /// the windows.)
 #[test]
 fn a_weak_loop_in_a_ringing_oscillator_under_one_down_sweep_is_named() {
