@@ -18,7 +18,7 @@
 //!   spring on every open direction: without one the static part is refused.
 //!
 //! `f_lo` is the higher of the accelerometers' low band edge (the lowest frequency at which
-//! their spectrum stands [`crate::equation::SNR`] times above its noise floor:
+//! their spectrum stands [`crate::signal::SNR`] times above its noise floor:
 //! an accelerometer says nothing below it, and double integration amplifies what it says
 //! there by `1/ω²`) and a quarter of the open directions' lowest natural frequency in the
 //! model (below it the model's answer is quasi-static, `(f / f_n)²` ≈ 6 % sensitive to its
@@ -151,7 +151,7 @@ pub fn positions(model: &Model, record: &Record, open: &[String]) -> Result<Vec<
     let df = 1.0 / (len as f64 * dt);
     let f_acc = a_cols
         .iter()
-        .map(|x| signal::signal_low_edge_hz(x, dt, crate::equation::SNR))
+        .map(|x| signal::signal_low_edge_hz(x, dt, crate::signal::SNR))
         .fold(0.0, f64::max);
     let f_lo = f_acc.max(MODEL_BAND_FRACTION * f_n).max(2.0 * df);
 

@@ -17,7 +17,7 @@
 //! handled by this formulation alone.
 //!
 //! The cut-off is set from the data: the highest frequency at which the measured
-//! displacements' spectrum stands [`SNR`] times above its noise floor
+//! displacements' spectrum stands [`signal::SNR`] times above its noise floor
 //! ([`signal::signal_band_edge_hz`]), within [0.002, 0.4] of the sample rate.
 
 use crate::effects::BoucWen;
@@ -27,10 +27,6 @@ use crate::signal;
 use crate::Result;
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
-
-/// Signal-to-noise power ratio (-) that sets the state filter's cut-off: 100 (20 dB), a
-/// generic choice for "clearly above the noise", not tuned to any record.
-pub const SNR: f64 = 100.0;
 
 /// Estimated states of the measured record (per DOF, per sample).
 #[derive(Clone, Debug)]
@@ -176,7 +172,7 @@ pub fn estimate_states(model: &Model, record: &Record) -> Result<States> {
     };
     let edge = q
         .iter()
-        .map(|qi| signal::signal_band_edge_hz(qi, dt, SNR))
+        .map(|qi| signal::signal_band_edge_hz(qi, dt, signal::SNR))
         .fold(0.0, f64::max);
     let fs = 1.0 / dt;
     let fc_hz = edge.clamp(0.002 * fs, 0.4 * fs);

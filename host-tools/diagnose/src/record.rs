@@ -183,68 +183,6 @@ impl Record {
     }
 }
 
-/// Half-width (decades) of the band around each power of 1000 (an SI prefix step: mm for m,
-/// kN for N, µm for m) in which [`check_scale`] takes the ratio between an output column's
-/// RMS and the model's response for a unit mistake.
-pub const PREFIX_BAND_DECADES: f64 = 0.5;
-
-/// Checks that no output column is an SI prefix step (a power of 1000) off the scale of the
-/// model's response to the record's inputs (the linear model as given, simulated from rest
-/// over the whole record; means removed): the ratio of RMS values is refused within
-/// [`PREFIX_BAND_DECADES`] of 10^(3k), k ≠ 0. A model that is merely far off (a normalised
-/// model of a circuit, like the Silverbox example's, 10^5 away) passes: recalibration fixes
-/// its scale. Models that are not restrained on their own (a free mass) or whose simulation
-/// diverges are not checked.
-///
-/// # Errors
-/// An output whose scale looks like a unit mistake: the message names the column, the
-/// ratio, the likely unit and the `gain` that would fix it.
-pub fn check_scale(model: &crate::Model, record: &Record) -> Result<()> {
-    if !model.is_restrained() || record.len() < 16 {
-        return Ok(());
-    }
-    let Ok(inputs) = crate::simulate::prepare_inputs(model, record) else {
-        return Ok(());
-    };
-    let Ok(sim) = crate::simulate::simulate_outputs(model, record, &inputs, 0..record.len(), None)
-    else {
-        return Ok(());
-    };
-    let rms = |x: &[f64]| {
-        let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
-        (x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / x.len().max(1) as f64).sqrt()
-    };
-    for (output, predicted) in model.outputs.iter().zip(&sim.outputs) {
-        let measured = record.column(&output.column)?;
-        let (m, p) = (rms(measured), rms(predicted));
-        if !(m > 0.0 && p > 0.0 && m.is_finite() && p.is_finite()) {
-            continue;
-        }
-        let ratio = m / p;
-        let steps = (ratio.log10() / 3.0).round();
-        if steps == 0.0 || (ratio.log10() - 3.0 * steps).abs() > PREFIX_BAND_DECADES {
-            continue;
-        }
-        let decade = 10f64.powf(3.0 * steps);
-        let unit = match (output.kind, 3 * steps as i32) {
-            (crate::model::OutputKind::Displacement, 3) => " (mm for m?)",
-            (crate::model::OutputKind::Displacement, 6) => " (µm for m?)",
-            (crate::model::OutputKind::Force, -3) => " (kN for N?)",
-            (_, 3) => " (a milli-unit for the SI unit?)",
-            _ => "",
-        };
-        return Err(Error::Record(format!(
-            "column {:?} (a {:?} output) has {ratio:.3e} times the RMS of the model's response \
-             to the record's inputs{unit}: if the column is in other units, give the output \
-             gain = {:e} (column units per SI unit), or check the inputs' units",
-            output.column,
-            output.kind,
-            decade * output.gain
-        )));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,6 +3,11 @@
 
 use rustfft::{num_complex::Complex64, FftPlanner};
 
+/// Signal-to-noise power ratio (-) at which a signal's band ends (the state filter's
+/// cut-off, an accelerometer's low band edge, the record budget's band): 100 (20 dB), a
+/// generic choice for "clearly above the noise", not tuned to any record.
+pub const SNR: f64 = 100.0;
+
 /// The zero-phase fourth-order Butterworth low-pass diagnosis filters with
 /// (`mil_numerics::filter`, the workspace's one implementation).
 pub use mil_numerics::filter::{

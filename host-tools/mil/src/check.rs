@@ -7,7 +7,7 @@
 //! | structure (`[[dof]]`) | TOML with `dof` | `mil diagnose` and a set-up's part: schema, names, effects, statics, plausibility |
 //! | MiL set-up | TOML with `[controller]` | `mil analyze` / `mil design-filter`, and for configuration 4 `mil sim` / `mil run` (board parameters, rig, excitation, the comparison) |
 //! | filter file | JSON | `[controller] filter`, `mil filter upload`: model-core's checks |
-//! | record | CSV | `mil diagnose`'s reader: header, units, uniform time base |
+//! | record | CSV | `mil diagnose`'s reader: header, units, uniform time base; `--against` a structure, everything `mil diagnose` checks before its search |
 //!
 //! A record checked `--against` a structure must also hold the structure's input and output
 //! columns, as `mil diagnose` requires.
@@ -140,7 +140,8 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
             if let Some(structure) = against {
                 let m = Model::read(structure).map_err(|e| anyhow!("{e}"))?;
                 crate::diagnose::check_columns(&m, &r, path)?;
-                mil_diagnose::record::check_scale(&m, &r).map_err(|e| anyhow!("{e}"))?;
+                mil_diagnose::diagnose::check_record(&m, &r, &Default::default())
+                    .map_err(|e| anyhow!("{}: {e}", path.display()))?;
             }
             format!(
                 "record: {} samples at {:.6} Hz ({:.3} s), columns {}",

@@ -1,7 +1,8 @@
 //! `mil check FILE` on every kind of file: the shipped examples pass; each unit mistake of
 //! issue 20 is refused with a message naming the field and the likely unit; and any
 //! structure it accepts runs through `mil sim` (a property test over masses, stiffnesses,
-//! dampings and gravity spanning ten decades).
+//! dampings and gravity spanning ten decades), any set-up, filter file and record it accepts
+//! runs through its commands.
 
 use mil::check::{check, kind_of, FileKind};
 use mil::setup::SetUp;
@@ -365,6 +366,76 @@ proptest! {
             ]);
             let ran = runs_through_every_command(&path, &dir);
             prop_assert!(ran.is_ok(), "{}", ran.err().unwrap_or_default());
+        }
+    }
+}
+
+/// A 4 s `mil sim` record of the 2-DOF set-up (CSV text), made once.
+fn two_dof_record() -> &'static str {
+    static RECORD: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    RECORD.get_or_init(|| {
+        let dir = scratch("record-source");
+        let physical =
+            std::fs::read_to_string(manifest().join("examples/two-dof-physical.toml")).unwrap();
+        let config = two_dof_with(&dir, &physical, 4.0);
+        let out = simulate(&SetUp::read(&config).unwrap().sim().unwrap(), |_| {}).unwrap();
+        let record = dir.join("record.csv");
+        out.write_csv(&record).unwrap();
+        std::fs::read_to_string(&record).unwrap()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// Whatever record `mil check --against` a structure accepts, `mil diagnose` runs on:
+    /// a `mil sim` record rewritten as DAQ exports look (separators, `time [s]`-style
+    /// headers, times rounded to a few decimals or jittered by a fraction of a sample),
+    /// shortened, or with a column scaled 1000x (many of them off, which check must refuse).
+    #[test]
+    fn any_record_check_accepts_runs_through_diagnose(
+        separator in prop::sample::select(vec![",", ";", "\t"]),
+        time_header in prop::sample::select(vec!["time", "time [s]", "t (s)", "Time_s"]),
+        decimals in prop::sample::select(vec![None, Some(3usize), Some(4), Some(6)]),
+        jitter in prop::sample::select(vec![0.0, 0.0, 0.05, 0.3, 0.7]),
+        seconds in prop::sample::select(vec![4.0, 1.0, 0.2, 0.02]),
+        scale in prop::sample::select(vec![1.0, 1.0, 1e3, 1e-3]),
+        seed in any::<u64>(),
+    ) {
+        let dir = scratch("property-record");
+        let text = two_dof_record();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let force = header.iter().position(|c| *c == "mil_force_0").unwrap();
+        let dt = 1.0 / 2000.0;
+        let mut rng = mil_numerics::rng::SplitMix64::new(seed);
+        let mut out = std::iter::once(time_header)
+            .chain(header[1..].iter().copied())
+            .collect::<Vec<_>>()
+            .join(separator)
+            + "\n";
+        for line in lines.take((seconds / dt) as usize) {
+            let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();
+            let t = fields[0].parse::<f64>().unwrap() + jitter * dt * (rng.uniform() - 0.5);
+            fields[0] = match decimals {
+                Some(d) => format!("{t:.d$}"),
+                None => format!("{t:e}"),
+            };
+            fields[force] = format!("{:e}", fields[force].parse::<f64>().unwrap() * scale);
+            out += &(fields.join(separator) + "\n");
+        }
+        let record = dir.join("record.csv");
+        std::fs::write(&record, out).unwrap();
+        let structure = manifest().join("examples/two-dof-physical.toml");
+        if check(&record, Some(&structure)).is_ok() {
+            let request = mil::diagnose::DiagnoseRequest {
+                model: structure,
+                data: record,
+                out: dir.join("diagnose"),
+                tyre: None,
+            };
+            let ran = mil::diagnose::run_diagnose(&request, &|_, _| {});
+            prop_assert!(ran.is_ok(), "accepted but not diagnosed: {:#}", ran.err().unwrap());
         }
     }
 }

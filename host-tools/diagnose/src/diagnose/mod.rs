@@ -185,6 +185,18 @@ pub fn diagnose(model: &Model, record: &Record, options: &Options) -> Result<Dia
     })
 }
 
+/// Everything [`diagnose`] checks of `model` and `record` before it searches (what `mil
+/// check --against` runs): the options, the model's outputs, the record's columns, its
+/// length against the sample budget and its scale against the model, that the outputs
+/// determine every DOF's states, the force inputs' sign, and that the record is long enough
+/// for a fitting and a validation part. Costs one state estimate.
+///
+/// # Errors
+/// As [`diagnose`], before its search.
+pub fn check_record(model: &Model, record: &Record, options: &Options) -> Result<()> {
+    prepare(model, record, options, &|_, _| {}).map(|_| ())
+}
+
 /// [`diagnose`], reporting its progress to `progress(fraction, message)` instead of stderr
 /// (`options.progress` is ignored): `fraction` is a rough share of the work done, from 0 to
 /// 1, never decreasing (by phase: state estimate, recalibration, candidates of each

@@ -13,7 +13,7 @@ use crate::{signal, Error, Result};
 
 /// The record as the diagnosis uses it: each input column that is not also an output is
 /// low-passed (zero phase, [`signal::lowpass_zero_phase`]) an octave above its own signal
-/// band edge ([`signal::signal_band_edge_hz`] at [`equation::SNR`]; at least 0.002 of the
+/// band edge ([`signal::signal_band_edge_hz`] at [`signal::SNR`]; at least 0.002 of the
 /// sample rate, and left as it is when that is above 0.4 of it). A logged input carries measurement
 /// noise like any channel; driven through a stiff path (a tyre's stiffness and damping from
 /// a logged road) its noise, differentiated, would dominate the simulated outputs and be
@@ -36,7 +36,7 @@ pub fn prefilter_inputs(model: &Model, record: &Record) -> (Record, Vec<(String,
         let col = &out.columns[j];
         // An octave above the band edge, so that the band itself passes (the forward-backward
         // fourth-order Butterworth keeps 99 % of the amplitude at half its cut-off).
-        let fc = 2.0 * signal::signal_band_edge_hz(col, record.dt, equation::SNR);
+        let fc = 2.0 * signal::signal_band_edge_hz(col, record.dt, signal::SNR);
         if fc >= 0.4 * fs {
             continue;
         }
@@ -83,7 +83,7 @@ pub fn within_budget<'a>(
         edge = edge.max(signal::signal_band_edge_hz(
             record.column(c)?,
             record.dt,
-            equation::SNR,
+            signal::SNR,
         ));
     }
     let needed = len.div_ceil(MAX_SAMPLES);
@@ -161,7 +161,7 @@ pub(super) fn prepare(
         log(0.0, m);
     }
     let record = record.as_ref();
-    crate::record::check_scale(model, record)?;
+    crate::simulate::check_scale(model, record)?;
     let len = record.len();
     let (prefiltered, input_cutoffs) = prefilter_inputs(model, record);
     let record = &prefiltered;
