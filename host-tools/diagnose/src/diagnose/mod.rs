@@ -46,9 +46,9 @@
 //!    the linear parameters free) and must pay off on the validation blocks' simulated
 //!    outputs: the same criterion against the current stage, and a practical margin — on
 //!    some output the sum of squares removed reaches [`PRACTICAL_MARGIN`] times that
-//!    output's measurement noise ([`signal::noise_std`]), or [`CLOSING_MARGIN`] times it
-//!    when the step removes at least [`CLOSING_SHARE`] of the stage's excess over the
-//!    noise. Of the confirmed ones, the best by
+//!    output's measurement noise ([`crate::signal::noise_std`]), or [`CLOSING_MARGIN`]
+//!    times it when the step removes at least [`CLOSING_SHARE`] of the stage's excess over
+//!    the noise. Of the confirmed ones, the best by
 //!    the criterion is named, unless one with fewer parameters is within
 //!    [`PARSIMONY_Z`] standard errors of it (two forms that explain the record equally well: the simpler is named);
 //!    the search goes on (greedy forward selection) until
@@ -124,7 +124,7 @@ use crate::effects::EffectKind;
 use crate::model::Model;
 use crate::record::Record;
 use crate::simulate::prepare_inputs;
-use crate::{parallel, signal, Result};
+use crate::{parallel, Result};
 use fit::Context;
 use gaps::{gaps, Stages};
 use output_error::RefineOn;
@@ -134,7 +134,7 @@ use recalibration::{recalibrate, refine_recalibrated, row_weights};
 use report_evidence::{bands_and_windows, regions};
 use report_parameters::{fill_named, recalibrated_parameters, saturation_within_reach};
 use selection::{Branch, Findings, Selection};
-use simulated::Simulated;
+use simulated::{measured_outputs, Simulated};
 
 /// Options of [`diagnose`].
 #[derive(Clone, Debug)]
@@ -213,8 +213,7 @@ pub fn diagnose_with_progress(
     let log = |f: f64, m: &str| progress(f.clamp(0.0, 1.0), m);
     let Prepared {
         record,
-        reduced,
-        input_cutoffs,
+        mut notes,
         st,
         work,
         split,
@@ -227,11 +226,6 @@ pub fn diagnose_with_progress(
         split: &split,
         thin: 1,
     };
-    let mut notes: Vec<String> = input_cutoffs
-        .iter()
-        .map(|(c, fc)| format!("input column {c:?} low-passed at {fc:.1} Hz (an octave above its signal band edge)"))
-        .collect();
-    notes.extend(reduced);
     let (free0, recal_fit) = recalibrate(model, &ctx, work.as_ref(), &mut notes, &log)?;
     let mut current = recal_fit.clone();
     let restrained = recal_fit.model.is_restrained();
@@ -239,15 +233,7 @@ pub fn diagnose_with_progress(
     let inputs = prepare_inputs(model, record)?;
     let q0: Vec<f64> = st.q.iter().map(|q| q[0]).collect();
     let qd0: Vec<f64> = st.qd.iter().map(|q| q[0]).collect();
-    let measured: Vec<&[f64]> = model
-        .outputs
-        .iter()
-        .map(|o| record.column(&o.column))
-        .collect::<Result<_>>()?;
-    let noise: Vec<f64> = measured
-        .iter()
-        .map(|m| signal::noise_std(m, record.dt))
-        .collect();
+    let (measured, noise) = measured_outputs(model, record)?;
     let sim = Simulated::new(&measured, &noise, &split, record, (&q0, &qd0));
     let refine_on = RefineOn {
         record,

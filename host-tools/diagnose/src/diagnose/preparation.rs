@@ -112,10 +112,9 @@ pub fn within_budget<'a>(
 pub(super) struct Prepared {
     /// The record as the diagnosis uses it ([`within_budget`], [`prefilter_inputs`]).
     pub(super) record: Record,
-    /// The line that says the record was averaged down, if it was.
-    pub(super) reduced: Option<String>,
-    /// Per low-passed input column: its name and cut-off (Hz).
-    pub(super) input_cutoffs: Vec<(String, f64)>,
+    /// The notes the preparation leaves: each input column low-passed, and the record
+    /// averaged down if it was.
+    pub(super) notes: Vec<String>,
     /// The states estimated from the record.
     pub(super) st: States,
     /// The force inputs' net work share and the inputs whose own share is negative
@@ -209,10 +208,14 @@ pub(super) fn prepare(
             split.block
         ),
     );
+    let mut notes: Vec<String> = input_cutoffs
+        .iter()
+        .map(|(c, fc)| format!("input column {c:?} low-passed at {fc:.1} Hz (an octave above its signal band edge)"))
+        .collect();
+    notes.extend(reduced);
     Ok(Prepared {
         record: prefiltered,
-        reduced,
-        input_cutoffs,
+        notes,
         st,
         work,
         split,

@@ -8,6 +8,7 @@ use crate::record::Record;
 use crate::signal;
 use crate::simulate::{self, prepare_inputs};
 use crate::split::Split;
+use crate::Result;
 
 /// Simulation of models over the record, scored on the validation blocks.
 pub(super) struct Simulated<'a> {
@@ -130,4 +131,25 @@ pub(super) fn inverse_spreads(measured: &[&[f64]], idx: &[usize]) -> Vec<f64> {
             1.0 / signal::std(&v).max(1e-300)
         })
         .collect()
+}
+
+/// The model's measured outputs, as the record's columns, and each one's measurement
+/// noise (standard deviation, [`signal::noise_std`]).
+///
+/// # Errors
+/// A column the record does not hold.
+pub(super) fn measured_outputs<'r>(
+    model: &Model,
+    record: &'r Record,
+) -> Result<(Vec<&'r [f64]>, Vec<f64>)> {
+    let measured: Vec<&[f64]> = model
+        .outputs
+        .iter()
+        .map(|o| record.column(&o.column))
+        .collect::<Result<_>>()?;
+    let noise: Vec<f64> = measured
+        .iter()
+        .map(|m| signal::noise_std(m, record.dt))
+        .collect();
+    Ok((measured, noise))
 }
