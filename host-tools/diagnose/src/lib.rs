@@ -1,4 +1,4 @@
-//! The discrepancy workflow (`mil diagnose`, issue 6): take a lumped mass-spring-damper
+//! The discrepancy workflow (`mil diagnose`): take a lumped mass-spring-damper
 //! model and a measured record, recalibrate the model's linear parameters, find which
 //! physical effect is missing, fit its parameters, and show how much the gap shrinks.
 //!

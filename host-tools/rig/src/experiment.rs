@@ -252,47 +252,58 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
             specimen,
             specimen_inputs,
         } => {
-            let args = (specimen, specimen_inputs, *actuator, instrumentation);
+            let rig = StructureRig {
+                specimen,
+                specimen_inputs,
+                actuator: *actuator,
+                instrumentation,
+                fs: *fs,
+                step: *step,
+                inputs,
+            };
             match board {
-                PreparedSubstructure::One(p) => structure(p, args, *fs, *step, inputs, progress),
-                PreparedSubstructure::Two(p) => structure(p, args, *fs, *step, inputs, progress),
-                PreparedSubstructure::Three(p) => structure(p, args, *fs, *step, inputs, progress),
-                PreparedSubstructure::Four(p) => structure(p, args, *fs, *step, inputs, progress),
+                PreparedSubstructure::One(p) => structure(p, &rig, progress),
+                PreparedSubstructure::Two(p) => structure(p, &rig, progress),
+                PreparedSubstructure::Three(p) => structure(p, &rig, progress),
+                PreparedSubstructure::Four(p) => structure(p, &rig, progress),
             }
         }
     }
 }
 
+/// A structure run's rig, whatever the board's number of channels.
+struct StructureRig<'a> {
+    specimen: &'a Specimen,
+    specimen_inputs: &'a [usize],
+    actuator: ForceActuator,
+    instrumentation: &'a Instrumentation,
+    fs: f64,
+    step: f64,
+    inputs: &'a [Vec<f64>],
+}
+
 /// A structure on `CH` actuators with model-core's substructure model on the board.
 fn structure<const CH: usize>(
     board: &PreparedParams<SubstructureModel<CH>, CH>,
-    (specimen, specimen_inputs, actuator, instrumentation): (
-        &Specimen,
-        &Vec<usize>,
-        ForceActuator,
-        &Instrumentation,
-    ),
-    fs: f64,
-    step: f64,
-    inputs: &[Vec<f64>],
+    rig: &StructureRig<'_>,
     progress: impl FnMut(f64),
 ) -> Result<Outcome, ExperimentError> {
     let model_roads: [usize; CH] = std::array::from_fn(|c| c);
     let mut parts = vec![substructure_part(
-        specimen.clone(),
-        vec![actuator; CH],
+        rig.specimen.clone(),
+        vec![rig.actuator; CH],
         &board.params().model,
         0,
-        specimen_inputs,
+        rig.specimen_inputs,
         model_roads,
-        step,
+        rig.step,
     )?];
     on_board(
         board,
         &mut parts,
-        instrumentation,
-        fs,
-        inputs,
+        rig.instrumentation,
+        rig.fs,
+        rig.inputs,
         &[0.0; CH],
         substructure_input(model_roads),
         progress,

@@ -19,8 +19,8 @@ use crate::signal;
 /// units for no physical reason.
 pub const INPUT_KEPT: f64 = 0.5;
 
-/// Fits candidate `cand` on top of `base` (fitted with `base_free`); returns the best
-/// fit over its grid and the number of parameters it adds.
+/// Fits candidate `cand` on top of the fitted `base` (its free and bounded coefficients free
+/// again); returns the best fit over its grid and the number of parameters it adds.
 pub(super) fn fit_candidate(
     ctx: &Context<'_>,
     grid: Option<&Context<'_>>,

@@ -112,7 +112,8 @@ pub struct Diagnosis {
     pub notes: Vec<String>,
 }
 
-/// The JSON object of `mil diagnose --json` (exactly the keys).
+/// The JSON object of `mil diagnose --json`: the named effects, the recalibrated
+/// parameters, the gaps before and after, and the updated model's path.
 #[derive(Clone, Debug, Serialize)]
 pub struct JsonReport {
     /// Named effects; empty when no missing effect was found.

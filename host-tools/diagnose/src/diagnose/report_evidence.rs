@@ -81,9 +81,9 @@ pub(super) fn bands_and_windows(
             record.dt,
         );
         for (inp, u) in model.inputs.iter().zip(inputs) {
-            for (o, y) in model.outputs.iter().enumerate() {
+            for (o, output) in model.outputs.iter().enumerate() {
                 bands.extend(evidence::frf_bands(
-                    (&inp.column, &model.outputs[o].column),
+                    (&inp.column, &output.column),
                     u,
                     measured[o],
                     &before[o],
@@ -92,7 +92,6 @@ pub(super) fn bands_and_windows(
                     0.0,
                     fc_hz.min(0.45 / record.dt),
                 ));
-                let _ = y;
             }
         }
     }
