@@ -3,6 +3,8 @@
 //! The simulated rig's exact linear steps and the analysis' zero-order-hold discretisation
 //! both call it.
 
+use crate::dense::matmul;
+
 /// Scratch buffers of [`expm_minus_identity`], reused across calls.
 #[derive(Clone, Debug, Default)]
 pub struct ExpmScratch {
@@ -82,14 +84,6 @@ pub fn expm_minus_identity(
 }
 
 /// `out = a b` for `n × n` row-major matrices.
-fn matmul(a: &[f64], b: &[f64], n: usize, out: &mut [f64]) {
-    for i in 0..n {
-        for j in 0..n {
-            out[i * n + j] = (0..n).map(|k| a[i * n + k] * b[k * n + j]).sum();
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

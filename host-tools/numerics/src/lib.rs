@@ -6,6 +6,8 @@
 //!
 //! - [`rng`]: SplitMix64, the seeded generator of every reproducible noise (the rig's sensor
 //!   and link noise, identification's excitations, the tests' synthetic records).
+//! - [`dense`]: small dense linear algebra on row-major slices (inverse, product, balancing,
+//!   dot product): the rig's plant and the matrix exponential.
 //! - [`expm`]: the matrix exponential (`e^{sM} − I`, scaling and squaring): the rig's exact
 //!   linear steps and the zero-order-hold discretisation.
 //! - [`filter`]: Butterworth low-pass sections (bilinear, pre-warped), causal or zero-phase:
@@ -16,6 +18,7 @@
 //! - [`record`]: the CSV reader of every record and table (comma, semicolon or tab; units in
 //!   the header; decimal commas; comment lines) and the one time-base rule.
 
+pub mod dense;
 pub mod expm;
 pub mod filter;
 pub mod interpolate;

@@ -27,7 +27,6 @@
 pub const DEFAULT_INTERNAL_STEP_S: f64 = 100e-6;
 
 pub mod actuator;
-mod dense;
 pub mod experiment;
 pub mod harness;
 pub mod link;

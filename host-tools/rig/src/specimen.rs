@@ -291,7 +291,7 @@ impl Specimen {
         if !self.mass.iter().all(|r| finite(r)) || !finite(&self.static_force) {
             return err("mass and static_force must be finite".into());
         }
-        if crate::dense::invert(&self.mass).is_none() {
+        if mil_numerics::dense::invert(&self.mass).is_none() {
             return err("mass matrix must be positive definite".into());
         }
         for (i, row) in self.mass.iter().enumerate() {

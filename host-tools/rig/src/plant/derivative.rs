@@ -7,7 +7,7 @@
 use super::drive::{actuator_state, interface_forces, Drive};
 use super::Plant;
 use crate::actuator::ACTUATOR_STATES;
-use crate::dense::{copy, dot, row};
+use mil_numerics::dense::{copy, dot, row};
 use mil_structure::CompiledLaw;
 
 /// An element's force law, specialised once.

@@ -5,7 +5,7 @@
 //! [`super::linearise`] builds the model from the plant.
 
 use crate::actuator::ForceActuator;
-use crate::dense::{copy, dot, matmul};
+use mil_numerics::dense::{copy, dot, matmul};
 
 /// One test of the linear regime on the regime quantities (in order).
 #[derive(Clone, Copy, Debug)]

@@ -8,7 +8,7 @@ use super::drive::{AffineInterface, Drive};
 use super::linear::{Linear, LinearParts, RegimeTest, Shape};
 use super::Plant;
 use crate::actuator::{ForceActuator, ACTUATOR_STATES};
-use crate::dense::{balance, copy, dot, row};
+use mil_numerics::dense::{balance, copy, dot, row};
 
 impl Plant {
     /// The affine model of a piecewise-linear plant (`None` otherwise).

@@ -34,8 +34,8 @@
 
 // One idea per file: `drive` (actuators or an ideal interface), `derivative` (the state
 // derivative), `rk4` (advancing in time), `sample` (the signals at an instant), `linearise`
-// (the affine model) and `linear` (its exact steps); the small matrix helpers are the crate's
-// leaf module `dense`.
+// (the affine model) and `linear` (its exact steps); the small matrix helpers are
+// `mil_numerics::dense`.
 mod derivative;
 mod drive;
 mod linear;
@@ -43,17 +43,15 @@ mod linearise;
 mod rk4;
 mod sample;
 
-// The inverse lives in `dense`, which the specimen's check uses too; kept at this path.
-pub use crate::dense::invert;
 pub use drive::{AffineInterface, IdealInterface};
 pub use sample::PlantOutputs;
 
 use crate::actuator::{ForceActuator, ACTUATOR_STATES};
-use crate::dense::{dot, row};
 use crate::specimen::{Specimen, SpecimenError};
 use derivative::{pad, ElementLaw, Fixed, FIXED};
 use drive::Drive;
 use linear::{with_linear, Linear};
+use mil_numerics::dense::{dot, invert, row};
 use mil_structure::CompiledLaw;
 
 /// Internal steps taken since the plant was built, by kind (see the module documentation).

@@ -7,7 +7,7 @@ use super::drive::Drive;
 use super::linear::{with_linear, Linear};
 use super::Plant;
 use crate::actuator::{ForceActuator, ACTUATOR_STATES};
-use crate::dense::copy;
+use mil_numerics::dense::copy;
 
 /// Signals of the plant at one instant.
 #[derive(Clone, Debug, Default, PartialEq)]

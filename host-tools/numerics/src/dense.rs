@@ -1,10 +1,7 @@
-//! Small dense linear algebra on slices, row-major: the inverse of a small matrix (the
-//! specimen's mass-matrix check, the plant's `M⁻¹`), the product and the balancing of square
-//! matrices (the plant's exact steps), and the dot product, row and copy of the plant's
-//! inner loops.
-//!
-//! A leaf: it imports nothing of this crate, so that [`crate::specimen`] and
-//! [`crate::plant`] both use it without depending on each other.
+//! Small dense linear algebra on slices, row-major: the inverse of a small matrix (the rig
+//! specimen's mass-matrix check, its plant's `M⁻¹`), the product and the balancing of square
+//! matrices (the plant's exact steps, the matrix exponential), and the dot product, row and
+//! copy of the plant's inner loops.
 
 /// Inverse of a small square matrix given as rows (Gauss–Jordan with partial pivoting),
 /// row-major; `None` when singular.
@@ -52,7 +49,7 @@ pub fn invert(rows: &[Vec<f64>]) -> Option<Vec<f64>> {
 /// `a · b` over the shorter length, in four interleaved partial sums (lets the compiler
 /// vectorise it).
 #[inline]
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
     for (x, y) in (&mut ca).zip(&mut cb) {
@@ -72,13 +69,13 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// Row `i` of a row-major matrix with rows of `n` (empty beyond the end). Multiplies where
 /// `chunks_exact` would divide: this is the integration's inner loop.
 #[inline]
-pub(crate) fn row(m: &[f64], i: usize, n: usize) -> &[f64] {
+pub fn row(m: &[f64], i: usize, n: usize) -> &[f64] {
     m.get(i * n..i * n + n).unwrap_or(&[])
 }
 
 /// `dst = src` over the shorter length.
 #[inline]
-pub(crate) fn copy(dst: &mut [f64], src: &[f64]) {
+pub fn copy(dst: &mut [f64], src: &[f64]) {
     match (dst, src) {
         // One value (a channel's demand, a road input) without a `memcpy` call.
         ([d], [s, ..]) => *d = *s,
@@ -91,7 +88,7 @@ pub(crate) fn copy(dst: &mut [f64], src: &[f64]) {
 }
 
 /// `out = a b` for square row-major matrices of size `p`.
-pub(crate) fn matmul(a: &[f64], b: &[f64], p: usize, out: &mut [f64]) {
+pub fn matmul(a: &[f64], b: &[f64], p: usize, out: &mut [f64]) {
     if p == 0 {
         return;
     }
@@ -110,7 +107,7 @@ pub(crate) fn matmul(a: &[f64], b: &[f64], p: usize, out: &mut [f64]) {
 /// Balances the square row-major matrix `a` (size `p`) in place by a diagonal similarity of
 /// powers of two (exact), `a ← D⁻¹ a D`; returns `D`'s diagonal. Makes the norm that
 /// scales the matrix exponential meaningful for states in units as far apart as m and Pa.
-pub(crate) fn balance(a: &mut [f64], p: usize) -> Vec<f64> {
+pub fn balance(a: &mut [f64], p: usize) -> Vec<f64> {
     let mut d = vec![1.0; p];
     for _ in 0..100 {
         let mut done = true;
