@@ -1,6 +1,6 @@
 //! The paper's examples as linear MiL set-ups: the tyre on a hub-coupled rig (section 4),
 //! the aerodynamic model on a four-poster (section 3) and the 2-DOF example (Lim et al.).
-//! Parameters are the paper's (brief tables), in SI units. The tyre's damping velocity is by
+//! The parameter sets are `mil-params`' (the paper's tables, SI units). The tyre's damping velocity is by
 //! default what the board's tyre computes (model-core's velocity estimator at the
 //! controller's sample period and the model-core tyre's 500 Hz cut-off), see
 //! [`crate::system::VelocityEstimate`].
@@ -36,8 +36,8 @@ fn couple(k_mat: &mut DMatrix<f64>, c_mat: &mut DMatrix<f64>, i: usize, j: usize
     }
 }
 
-/// The tyre example's structure for a controller running every `sample_period_s` seconds: physical DOFs
-/// `x_s` (body) and `x_u` (hub), numerical tyre `B_i = c_t V(s) + k_t` from the road
+/// The tyre example's structure for a controller running every `sample_period_s` seconds:
+/// physical DOFs `x_s` (body) and `x_u` (hub), numerical tyre `B_i = c_t V(s) + k_t` from the road
 /// input `road` (m) to the hub, configuration 4. `V` is the board's velocity estimator at
 /// that sample period and [`TyreExample::velocity_cutoff_hz`] (what `model_core`'s tyre
 /// computes from the sampled deflection), or `s` with [`TyreVelocity::Continuous`].
@@ -105,8 +105,8 @@ pub fn axle_transform(car: &AeroExample) -> DMatrix<f64> {
     DMatrix::from_fn(2, 2, |i, j| car.axle_transform()[i][j])
 }
 
-/// The aero example's structure: physical DOFs `z_b` (m) and `theta_b` (rad); numerical part without
-/// masses, `F_i = K_i x_pi` (so `B_i = −K_i`); inputs `road_heave` (m, both axles),
+/// The aero example's structure: physical DOFs `z_b` (m) and `theta_b` (rad); numerical part
+/// without masses, `F_i = K_i x_pi` (so `B_i = −K_i`); inputs `road_heave` (m, both axles),
 /// `road_pitch` (rad), `road_front` and `road_rear` (m); actuators at the axles;
 /// configuration 4.
 ///

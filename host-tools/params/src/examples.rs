@@ -16,8 +16,9 @@ pub enum TyreVelocity {
     /// (`mil_analysis::system::VelocityEstimate::Board`).
     #[default]
     Board,
-    /// The ideal continuous derivative `c_t s` (`mil_analysis::system::VelocityEstimate::Continuous`), e.g. to
-    /// see what the estimator costs.
+    /// The ideal continuous derivative `c_t s`
+    /// (`mil_analysis::system::VelocityEstimate::Continuous`), e.g. to see what the
+    /// estimator costs.
     Continuous,
 }
 
