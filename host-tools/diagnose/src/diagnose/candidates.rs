@@ -151,7 +151,7 @@ pub(super) fn stops_are_free_play(m: &Model, st: &States, e: usize) -> bool {
 }
 
 /// The share of the record beyond which stops at both ends are the element's spring (see
-/// [`stops_are_free_play`]): half, "most of the time". The held-out generator puts end
+/// `stops_are_free_play`): half, "most of the time". The held-out generator puts end
 /// stops at the 90-98 % quantile of each side's deflection (engaged 2-20 % of the record);
 /// free play fitted as two stops has them engaged 50-80 % of it.
 pub const STOPS_AS_SPRING: f64 = 0.5;

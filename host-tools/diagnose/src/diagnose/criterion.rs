@@ -13,7 +13,7 @@ use crate::signal;
 /// Chosen on the development sets of the held-out benchmark (the 60-record development set
 /// and the 320-record matrix: every effect × excitation × model × topology) among 0.5, 0.25
 /// and 0.1, once input delays shorter than the sample period were no longer named
-/// ([`unresolved`](super::candidates::unresolved)): exact effect set 55 / 56 / 58 of 60 and 273 / 282 / 282 of 320 (the
+/// (`candidates::unresolved`): exact effect set 55 / 56 / 58 of 60 and 273 / 282 / 282 of 320 (the
 /// matrix runs at 0.25 and 0.1 with a first version of the two-sided bump-stop candidate;
 /// 0.25 without it: 279), no false alarm on the 29 clean records at any of them. Without a margin, 49 of 60: extra
 /// effects that the criterion accepts for a model-form difference (a saturation after

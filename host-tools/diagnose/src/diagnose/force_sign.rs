@@ -6,7 +6,7 @@ use crate::model::{InputKind, Model};
 use crate::{signal, Error};
 
 /// The least net work the force inputs may do on a specimen driven by force alone, as a
-/// share of the power they exchange with it ([`force_work_share`]): −0.5. A passive
+/// share of the power they exchange with it (`force_work_share`): −0.5. A passive
 /// specimen only takes energy in, less what it held at the start; a force that takes out
 /// half of what it exchanges has the opposite sign to the model's (a load cell read in
 /// tension against a DOF positive in compression). A damper gives about +1 and a lightly

@@ -20,9 +20,9 @@
 //!    on an element with damping and no spring: dry friction through a compliant link, as in
 //!    a friction or MR damper; an input effect only when it passes on at least
 //!    [`INPUT_KEPT`] of the input's spread; an input delay from one sample period, see
-//!    [`unresolved`](candidates::unresolved); a bump stop on one side or on both, the two-sided one kept when its
+//!    `candidates::unresolved`; a bump stop on one side or on both, the two-sided one kept when its
 //!    second stop pays for its parameters and its stops are not engaged for most of the
-//!    record, see [`stops_are_free_play`](candidates::stops_are_free_play)), its
+//!    record, see `candidates::stops_are_free_play`), its
 //!    coefficients fitted together with the linear parameters (linear least squares; effects
 //!    with a threshold-like parameter — gap, preload, delay, limits, Bouc-Wen shape — by a
 //!    grid over quantiles of the data, each grid point a linear fit, ranked on every few
