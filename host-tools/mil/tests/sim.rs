@@ -171,18 +171,22 @@ fn cli_writes_histories_plots_and_json() {
     std::fs::write(&cfg, text("tyre.toml", 4.0, &[])).unwrap();
     let filter = examples().join("tyre-filter.json");
     let out = dir.path().join("out");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args([
+    let sim = |json: bool| {
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_mil"));
+        command.args([
             "sim",
             cfg.to_str().unwrap(),
             "--filter",
             filter.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
-            "--json",
-        ])
-        .output()
-        .unwrap();
+        ]);
+        if json {
+            command.arg("--json");
+        }
+        command.output().unwrap()
+    };
+    let run = sim(true);
     assert!(
         run.status.success(),
         "{}",
@@ -219,17 +223,7 @@ fn cli_writes_histories_plots_and_json() {
         assert!(svg.starts_with("<svg") && svg.len() > 10_000, "{plot}");
     }
     // Without --json: the table and where the files are.
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args([
-            "sim",
-            cfg.to_str().unwrap(),
-            "--filter",
-            filter.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+    let run = sim(false);
     let text = String::from_utf8_lossy(&run.stdout);
     assert!(
         text.contains("J2 NRMS") && text.contains("sim.csv") && text.contains("response.svg"),
