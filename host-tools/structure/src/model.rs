@@ -43,10 +43,13 @@
 //!
 //! Positions are deviations from the static equilibrium. The static loads are stated once:
 //! with `gravity_m_per_s2`, the translation DOFs' weights `m g` (downwards: DOFs are up
-//! positive) are carried by the elements, whose preloads follow from the linear static
-//! solution `K u = −m g` (`P_e = k_e a_e·u`, [`Model::preloads`]) unless the file states
-//! them (`preload_n` on the elements), which must then balance the weights (within 1 %).
-//! Without gravity the preloads are the stated ones (default 0).
+//! positive), and a force input's `static_n` (the force it applies at rest, e.g. the
+//! actuator a quarter car hangs on), are carried by the elements, whose preloads follow from
+//! the linear static solution `K u = f` (`f` the weights and static input forces per DOF,
+//! `P_e = k_e a_e·u`; least squares when only the force inputs hold a DOF, and then `f` must
+//! balance) unless the file states them (`preload_n` on the elements), which must then
+//! balance `f` (within 1 %). Without static loads the preloads are the stated ones
+//! (default 0).
 //!
 //! Unknown keys are errors. `gain` (default 1) scales a column into the SI quantity the model
 //! uses (`value = gain × column`) for inputs, and the model's quantity into the column for
@@ -177,6 +180,11 @@ pub struct InputSpec {
     /// SI value per column unit (default 1).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub gain: f64,
+    /// Force inputs: the force it applies at rest (N, along `at`), e.g. the actuator that
+    /// holds the specimen on the rig; the elements' preloads balance it with the weights
+    /// (default 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub static_n: f64,
 }
 
 /// Measured quantity of an output.
@@ -221,25 +229,35 @@ pub struct EffectSpec {
     pub parameters: BTreeMap<String, f64>,
 }
 
-/// The elements' preloads (see the module documentation): checked when stated and gravity
-/// is on, derived from the linear static solution when gravity is on and none is stated.
-fn preloads(file: &ModelFile, elements: &mut [Element], static_force: &[f64]) -> Result<()> {
-    let Some(g) = file.gravity_m_per_s2 else {
-        return Ok(());
+/// The elements' preloads (see the module documentation): the static `loads` per DOF (the
+/// weights and the force inputs' `static_n`) checked against the stated preloads, or
+/// carried by preloads derived from the linear static solution when none is stated. A
+/// structure held by its force inputs alone (no spring to ground: the stiffness matrix is
+/// singular) is solved in the least-squares sense and must balance.
+fn preloads(file: &ModelFile, elements: &mut [Element], loads: &[f64]) -> Result<()> {
+    let n = loads.len();
+    let total: f64 = loads.iter().map(|f| f.abs()).sum();
+    let g = file.gravity_m_per_s2.unwrap_or(0.0);
+    let held = file.inputs.iter().any(|i| i.static_n != 0.0);
+    let load_names = if held {
+        "its weight and the force inputs' static_n"
+    } else {
+        "its weight"
     };
-    let n = static_force.len();
-    let weight: f64 = static_force.iter().map(|f| f.abs()).sum();
     if elements.iter().any(|e| e.preload_n != 0.0) {
-        let loads: Vec<(&[f64], f64)> = elements.iter().map(|e| (&e.a[..], e.preload_n)).collect();
-        if let Some((i, carried)) = unbalanced(static_force, &loads) {
-            let in_kg = (carried * g - static_force[i]).abs() < 0.01 * weight;
+        if file.gravity_m_per_s2.is_none() && !held {
+            return Ok(());
+        }
+        let stated: Vec<(&[f64], f64)> = elements.iter().map(|e| (&e.a[..], e.preload_n)).collect();
+        if let Some((i, carried)) = unbalanced(loads, &stated) {
+            let in_kg = g > 0.0 && (carried * g - loads[i]).abs() < 0.01 * total;
             return Err(Error::Model(format!(
-                "the elements' preload_n carry {:.1} N at dof {:?}, but its weight is {:.1} N \
-                 (gravity_m_per_s2 = {g}){}: state every preload_n in N so that they balance the \
-                 weights, or leave them all out and they follow from gravity",
+                "the elements' preload_n carry {:.1} N at dof {:?}, but {load_names} come to \
+                 {:.1} N there (gravity_m_per_s2 = {g}){}: state every preload_n in N so that \
+                 they balance the static loads, or leave them all out and they follow from them",
                 -carried,
                 file.dofs[i].name,
-                -static_force[i],
+                -loads[i],
                 if in_kg {
                     " -- preloads given in kg?"
                 } else {
@@ -249,7 +267,7 @@ fn preloads(file: &ModelFile, elements: &mut [Element], static_force: &[f64]) ->
         }
         return Ok(());
     }
-    if weight == 0.0 {
+    if total == 0.0 {
         return Ok(());
     }
     let mut k = nalgebra::DMatrix::<f64>::zeros(n, n);
@@ -258,19 +276,28 @@ fn preloads(file: &ModelFile, elements: &mut [Element], static_force: &[f64]) ->
             * nalgebra::DVector::from_column_slice(&e.a)
             * nalgebra::RowDVector::from_row_slice(&e.a);
     }
-    let Some(u) = k
-        .lu()
-        .solve(&nalgebra::DVector::from_column_slice(static_force))
-    else {
-        return Err(Error::Model(
-            "with gravity_m_per_s2 the springs must hold every DOF (the stiffness matrix is \
-             singular): add the springs that carry the weight, or state each element's \
-             preload_n"
-                .into(),
-        ));
+    let f = nalgebra::DVector::from_column_slice(loads);
+    let u = match k.clone().lu().solve(&f) {
+        Some(u) => u,
+        None => {
+            // Held (partly) by the force inputs: the least-squares solution, checked below.
+            let svd = k.svd(true, true);
+            let eps = 1e-12 * svd.singular_values.max();
+            svd.solve(&f, eps)
+                .map_err(|e| Error::Model(e.to_string()))?
+        }
     };
     for e in elements.iter_mut() {
         e.preload_n = e.law.k * e.a.iter().zip(u.iter()).map(|(a, u)| a * u).sum::<f64>();
+    }
+    let derived: Vec<(&[f64], f64)> = elements.iter().map(|e| (&e.a[..], e.preload_n)).collect();
+    if let Some((i, carried)) = unbalanced(loads, &derived) {
+        return Err(Error::Model(format!(
+            "the springs carry {:.1} N at dof {:?}, but {load_names} come to {:.1} N there \
+             (the stiffness matrix is singular): add the springs that carry the weight, give \
+             the force input that holds it its static_n, or state each element's preload_n",
+            -carried, file.dofs[i].name, -loads[i],
+        )));
     }
     Ok(())
 }
@@ -360,6 +387,8 @@ pub struct Input {
     pub gain: f64,
     /// Force inputs: generalised force per unit force on each DOF; empty for displacement.
     pub t: Vec<f64>,
+    /// Force inputs: the force applied at rest (N), which the preloads balance.
+    pub static_n: f64,
     /// Input effects.
     pub law: InputLaw,
 }
@@ -524,12 +553,21 @@ impl Model {
                 }
                 (InputKind::Displacement, None) => Vec::new(),
             };
+            if !inp.static_n.is_finite()
+                || (inp.kind == InputKind::Displacement && inp.static_n != 0.0)
+            {
+                return err(format!(
+                    "input {:?}: static_n must be finite, and is for force inputs only",
+                    inp.name
+                ));
+            }
             inputs.push(Input {
                 name: inp.name.clone(),
                 kind: inp.kind,
                 column: inp.column.clone(),
                 gain: inp.gain,
                 t,
+                static_n: inp.static_n,
                 law: InputLaw::default(),
             });
         }
@@ -633,7 +671,13 @@ impl Model {
             Some(g) if g.is_finite() && g >= 0.0 => weights(&file.dofs, g),
             Some(g) => return err(format!("gravity_m_per_s2 must be >= 0, got {g}")),
         };
-        preloads(&file, &mut elements, &static_force)?;
+        let mut loads = static_force.clone();
+        for i in &inputs {
+            for (l, t) in loads.iter_mut().zip(&i.t) {
+                *l += t * i.static_n;
+            }
+        }
+        preloads(&file, &mut elements, &loads)?;
         let mut model = Model {
             dofs,
             mass: file.dofs.iter().map(|d| d.mass).collect(),
@@ -650,6 +694,22 @@ impl Model {
         }
         model.check_plausible()?;
         Ok(model)
+    }
+
+    /// The structure with force input `input` applying `static_n` (N) at rest: the file
+    /// validated again, its preloads balancing the new static loads.
+    ///
+    /// # Errors
+    /// No force input of that name, or static loads the preloads cannot balance.
+    pub fn with_static_n(&self, input: &str, static_n: f64) -> Result<Self> {
+        let mut file = self.file.clone();
+        let spec = file
+            .inputs
+            .iter_mut()
+            .find(|i| i.name == input && i.kind == InputKind::Force)
+            .ok_or_else(|| Error::Model(format!("no force input {input:?}")))?;
+        spec.static_n = static_n;
+        Self::new(file)
     }
 
     /// Whether `name` is one of the inputs (else an element, if anything).
@@ -782,16 +842,31 @@ impl Model {
             }
         }
         if let Some(g) = f.gravity_m_per_s2 {
+            // Force inputs that hold the structure carry the recalibrated weight: their
+            // static forces scale with it.
+            let weight = |dofs: &[DofSpec]| weights(dofs, g).iter().sum::<f64>();
+            let (before, after) = (weight(&self.file.dofs), weight(&f.dofs));
+            if before != 0.0 && after != before {
+                for spec in &mut f.inputs {
+                    spec.static_n *= after / before;
+                }
+            }
             // Stated preloads that no longer carry the (recalibrated) weights go: they then
             // follow from gravity.
             let stated = f.elements.iter().any(|spec| spec.preload_n != 0.0);
-            let loads: Vec<(&[f64], f64)> = f
+            let stated_loads: Vec<(&[f64], f64)> = f
                 .elements
                 .iter()
                 .zip(&self.elements)
                 .map(|(spec, e)| (&e.a[..], spec.preload_n))
                 .collect();
-            if stated && unbalanced(&weights(&f.dofs, g), &loads).is_some() {
+            let mut loads = weights(&f.dofs, g);
+            for (spec, input) in f.inputs.iter().zip(&self.inputs) {
+                for (l, t) in loads.iter_mut().zip(&input.t) {
+                    *l += t * spec.static_n;
+                }
+            }
+            if stated && unbalanced(&loads, &stated_loads).is_some() {
                 for spec in &mut f.elements {
                     spec.preload_n = 0.0;
                 }

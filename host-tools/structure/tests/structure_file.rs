@@ -262,3 +262,68 @@ fn unit_mistakes_are_refused_naming_the_field_and_the_unit() {
     )
     .unwrap();
 }
+
+/// The quarter car of the tyre rig: no tyre, the hub hanging on its actuator (a force
+/// input at the hub with the static force it holds).
+fn quarter_car_on_its_hub_actuator(static_n: &str) -> String {
+    let text = quarter_car(true, "", "");
+    let (head, _) = text.split_once("[[element]]\nname = \"tyre\"").unwrap();
+    format!(
+        "{head}[[input]]\nname = \"hub actuator\"\nkind = \"force\"\ncolumn = \"force\"\n\
+         at = \"x_u\"\n{static_n}\n"
+    )
+}
+
+#[test]
+fn a_force_input_holding_the_structure_carries_its_weight() {
+    // Held by the actuator alone: the suspension carries the body, the actuator the car.
+    let m = Model::from_toml(&quarter_car_on_its_hub_actuator("static_n = 1667.7")).unwrap();
+    assert!(
+        close(m.preloads()[0], 150.0 * G, 1e-3),
+        "{:?}",
+        m.preloads()
+    );
+    assert_eq!(m.inputs[0].static_n, 1667.7);
+    // Without the actuator's static force nothing holds it up.
+    let e = Model::from_toml(&quarter_car_on_its_hub_actuator(""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("static_n") && e.contains("x_"), "{e}");
+    // The car's mass in kg as the static force: refused, naming the DOF left unbalanced.
+    let e = Model::from_toml(&quarter_car_on_its_hub_actuator("static_n = 170.0"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("static_n") && e.contains("dof \"x_"), "{e}");
+    // A static force on a displacement input is refused.
+    let e = Model::from_toml(
+        &quarter_car(true, "", "")
+            .replace("column = \"road\"", "column = \"road\"\nstatic_n = 10.0"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("static_n"), "{e}");
+    // Set again (the tyre's static load): the preloads follow; written back, the same.
+    let m = m.with_static_n("hub actuator", 170.0 * G).unwrap();
+    assert!(close(m.preloads()[0], 150.0 * G, 1e-12));
+    assert!(m.with_static_n("road", 1.0).is_err());
+    let back = Model::from_toml(&m.to_toml()).unwrap();
+    assert_eq!(back.elements, m.elements);
+    // A recalibrated body mass: the actuator holds the new weight.
+    let mut heavier = m.clone();
+    heavier.mass[0] = 165.0;
+    let back = Model::from_toml(&heavier.to_toml()).unwrap();
+    assert!(close(back.inputs[0].static_n, 185.0 * G, 1e-12));
+    assert!(close(back.preloads()[0], 165.0 * G, 1e-12));
+}
+
+#[test]
+fn a_static_force_on_sprung_structure_compresses_its_springs() {
+    // The whole quarter car on the road, pushed down by 1 kN at the body: the suspension
+    // carries the body and the push, the tyre the car and the push.
+    let text = quarter_car(true, "", "")
+        + "\n[[input]]\nname = \"push\"\nkind = \"force\"\ncolumn = \"push\"\nat = \"x_s\"\n\
+           static_n = -1000.0\n";
+    let p = Model::from_toml(&text).unwrap().preloads();
+    assert!(close(p[0], 150.0 * G + 1000.0, 1e-12), "{p:?}");
+    assert!(close(p[1], 170.0 * G + 1000.0, 1e-12), "{p:?}");
+}
