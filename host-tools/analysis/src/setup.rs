@@ -6,9 +6,9 @@
 //! `mil design-filter` and `mil sim` read the MiL set-up file (`mil::setup::SetUp` in
 //! `host-tools/mil/src/setup.rs`, one file for the analysis and the run), and
 //! `mil::setup::SetUp::analysis` builds this [`SetupFile`] from it (e.g. its
-//! `[numerical.tyre]` and `[physical.quarter_car]` become `[model] example = "tyre"` and
-//! `[model.tyre]`, its structure files and `[[interface.channels]]` a `custom` model, its
-//! `[sensors]` noise `[noise]`) and hands it to [`Setup::from_file`]. Its keys, for
+//! `[numerical.tyre]` on a physical structure becomes a `custom` model, the tyre its
+//! interface `B_i` at the hub and `road` its interface position; its structure files and
+//! `[[interface.channels]]` a `custom` model, its `[sensors]` noise `[noise]`) and hands it to [`Setup::from_file`]. Its keys, for
 //! reference:
 //!
 //! ```toml
@@ -150,11 +150,19 @@ pub struct PartSection {
     /// static equilibrium, and its displacement inputs push the part through the set-up's
     /// `[[inputs]]` of the same name (one is added, unit m, where the set-up has none).
     pub structure: Option<std::path::PathBuf>,
+    /// The structure already read and validated (its file name, `structure`, for
+    /// messages); not read from TOML.
+    #[serde(skip)]
+    pub model: Option<mil_structure::Model>,
 }
 
 /// A part and the couplings of its structure's displacement inputs, by name: stiffness and
 /// damping column over the part's DOFs.
-type PartWithInputs = (MechanicalPart, Vec<(String, DVector<f64>, DVector<f64>)>);
+type PartWithInputs = (
+    MechanicalPart,
+    Vec<(String, DVector<f64>, DVector<f64>)>,
+    Option<mil_structure::Model>,
+);
 
 /// A custom interface.
 #[derive(Clone, Debug, Deserialize)]
@@ -165,7 +173,7 @@ pub struct InterfaceSection {
     /// Numerical DOF per channel (empty for a numerical part without DOFs).
     #[serde(default)]
     pub numerical_dofs: Vec<String>,
-    /// Physical DOF per channel.
+    /// Physical DOF per channel (or a structure file's point).
     pub physical_dofs: Vec<String>,
     /// `K_i` (N/m), rows.
     pub stiffness: Vec<Vec<f64>>,
@@ -357,16 +365,18 @@ fn part(p: &PartSection, what: &str, folder: &Path) -> Result<PartWithInputs> {
             matrix(&p.damping, &format!("{what} damping"))?,
             matrix(&p.stiffness, &format!("{what} stiffness"))?,
         )?;
-        return Ok((part, Vec::new()));
+        return Ok((part, Vec::new(), None));
     };
     if !(p.dofs.is_empty() && p.mass.is_empty() && p.damping.is_empty() && p.stiffness.is_empty()) {
         return Err(setup_error(format!(
             "[{what}]: give a structure file or dofs and matrices, not both"
         )));
     }
-    let path = folder.join(file);
-    let model = mil_structure::Model::read(&path)
-        .map_err(|e| setup_error(format!("{what}.structure: {e}")))?;
+    let model = match &p.model {
+        Some(model) => model.clone(),
+        None => mil_structure::Model::read(&folder.join(file))
+            .map_err(|e| setup_error(format!("{what}.structure: {e}")))?,
+    };
     let l = model.linearised();
     let part = MechanicalPart::new(model.dofs.clone(), l.mass, l.damping, l.stiffness)?;
     let inputs = model
@@ -382,7 +392,7 @@ fn part(p: &PartSection, what: &str, folder: &Path) -> Result<PartWithInputs> {
             )
         })
         .collect();
-    Ok((part, inputs))
+    Ok((part, inputs, Some(model)))
 }
 
 fn location(text: &str) -> Result<ImpedanceLocation> {
@@ -395,23 +405,39 @@ fn location(text: &str) -> Result<ImpedanceLocation> {
     }
 }
 
-fn selector(part: &MechanicalPart, dofs: &[String], what: &str) -> Result<DMatrix<f64>> {
+/// The rows selecting `dofs` of `part`: DOFs, or a structure file's points (`structure`).
+fn selector(
+    part: &MechanicalPart,
+    structure: Option<&mil_structure::Model>,
+    dofs: &[String],
+    what: &str,
+) -> Result<DMatrix<f64>> {
     let mut q = DMatrix::zeros(dofs.len(), part.len());
     for (k, d) in dofs.iter().enumerate() {
-        let j = part
-            .index(d)
-            .ok_or_else(|| setup_error(format!("{what}: no DOF {d:?} in {:?}", part.dofs)))?;
-        q[(k, j)] = 1.0;
+        match (part.index(d), structure.and_then(|m| m.position_of(d))) {
+            (Some(j), _) => q[(k, j)] = 1.0,
+            (None, Some(c)) => {
+                for (j, v) in c.iter().enumerate() {
+                    q[(k, j)] = *v;
+                }
+            }
+            (None, None) => {
+                return Err(setup_error(format!(
+                    "{what}: no DOF or point {d:?} in {:?}",
+                    part.dofs
+                )))
+            }
+        }
     }
     Ok(q)
 }
 
 fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Result<Structure> {
-    let (numerical, numerical_couplings) = match &file.numerical {
+    let (numerical, numerical_couplings, numerical_structure) = match &file.numerical {
         Some(p) => part(p, "numerical", folder)?,
-        None => (MechanicalPart::massless(), Vec::new()),
+        None => (MechanicalPart::massless(), Vec::new(), None),
     };
-    let (physical, physical_couplings) = part(
+    let (physical, physical_couplings, physical_structure) = part(
         file.physical
             .as_ref()
             .ok_or_else(|| setup_error("a custom model needs [physical]"))?,
@@ -433,6 +459,7 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Re
         }
         selector(
             &numerical,
+            numerical_structure.as_ref(),
             &i.numerical_dofs,
             "interface.channels numerical",
         )?
@@ -440,7 +467,12 @@ fn custom_structure(file: &SetupFile, sample_period_s: f64, folder: &Path) -> Re
     let interface = Interface {
         location: location(&i.location)?,
         numerical_select,
-        physical_select: selector(&physical, &i.physical_dofs, "interface.channels physical")?,
+        physical_select: selector(
+            &physical,
+            physical_structure.as_ref(),
+            &i.physical_dofs,
+            "interface.channels physical",
+        )?,
         stiffness: matrix(&i.stiffness, "interface stiffness")?,
         damping: matrix(&i.damping, "interface damping")?,
         velocity: match i.velocity_cutoff_hz {

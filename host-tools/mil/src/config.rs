@@ -188,26 +188,32 @@ pub struct RigSection {
     pub actuator: Option<mil_params::ServoHydraulicActuator>,
     /// Switchable effects of every actuator (all off by default).
     pub actuator_effects: mil_rig::actuator::ActuatorEffects,
-    /// The quarter car's suspension (tyre rig); default: the paper's linear `k_c`, `c_c`.
-    /// Its preload is set to carry the sprung mass.
-    pub suspension: Option<mil_structure::Element>,
     /// Effects of the emulated (real) tyre, the vehicle's own, by name with their
     /// parameters (`mil_structure::EffectKind`, e.g. `{ lift_off = {}, bump_stop = { ... } }`);
     /// default: lift-off as the numerical tyre has it. Effects here and not in the board's model are
     /// hidden effects.
     pub tyre_effects:
         Option<std::collections::BTreeMap<mil_structure::EffectKind, mil_structure::Parameters>>,
-    /// The half car's front suspension (aero rig); default: the paper's.
-    pub front_suspension: Option<mil_structure::Element>,
-    /// The half car's rear suspension (aero rig); default: the paper's.
-    pub rear_suspension: Option<mil_structure::Element>,
     /// The physical specimen of a substructure run (required there): a structure file (the
     /// schema of `mil diagnose`'s models and `updated.toml`) and where the actuators act.
     pub structure: Option<StructureOnRig>,
-    /// The quarter car's masses (tyre rig); default the paper's.
-    pub quarter_car: Option<mil_params::TyreExample>,
-    /// The half car's masses and axles (aero rig); default the paper's.
-    pub half_car: Option<mil_params::AeroExample>,
+    /// The tyre rig's quarter car (required there), one per wheel: its one attachment the
+    /// hub, at rest when the hub actuator holds the tyre's static load.
+    pub quarter_car: Option<mil_rig::specimen::Specimen>,
+    /// The four-poster's half car (aero rig; required there).
+    pub half_car: Option<HalfCarOnRig>,
+}
+
+/// The half car on the four-poster (`[physical] structure` under the aero model).
+#[derive(Clone, Debug)]
+pub struct HalfCarOnRig {
+    /// The structure: two posts (displacement inputs, front then rear), two down-force
+    /// actuators (force inputs, front then rear).
+    pub model: mil_structure::Model,
+    /// Where the actuators act: the front and rear axle points.
+    pub axles: [String; 2],
+    /// The actuators' force inputs, front and rear.
+    pub actuators: [String; 2],
 }
 
 /// A structure file on the simulated rig (`[physical] structure`).
@@ -229,10 +235,7 @@ impl Default for RigSection {
             internal_step_s: mil_rig::DEFAULT_INTERNAL_STEP_S,
             actuator: None,
             actuator_effects: Default::default(),
-            suspension: None,
             tyre_effects: None,
-            front_suspension: None,
-            rear_suspension: None,
             structure: None,
             quarter_car: None,
             half_car: None,
@@ -340,14 +343,47 @@ pub enum Validated {
 }
 
 impl Config {
-    /// The tyre rig's quarter car (`[physical.quarter_car]`) or the paper's.
-    pub fn quarter_car(&self) -> mil_params::TyreExample {
-        self.rig.quarter_car.unwrap_or_default()
+    /// The board's aero model of `[numerical.aero]`.
+    pub fn aero_params(&self) -> Option<AeroParams> {
+        self.aero.as_ref().map(|a| AeroParams {
+            stiffness: a.stiffness,
+            nominal_force: a.nominal_force,
+            reference_speed: a.reference_speed_m_per_s,
+            front_axle: a.front_axle_m,
+            rear_axle: a.rear_axle_m,
+            ..AeroParams::PAPER
+        })
     }
 
-    /// The aero rig's half car (`[physical.half_car]`) or the paper's.
-    pub fn half_car(&self) -> mil_params::AeroExample {
-        self.rig.half_car.unwrap_or_default()
+    /// The four-poster's half car at rest at `start_speed_m_per_s` (m/s): its actuators
+    /// hold the board's static down force there, its preloads carry it with the weight.
+    ///
+    /// # Errors
+    /// No half car or aero model, or static loads the structure cannot carry.
+    pub fn half_car_specimen(
+        &self,
+        start_speed_m_per_s: f64,
+    ) -> Result<mil_rig::specimen::Specimen> {
+        let car = self
+            .rig
+            .half_car
+            .as_ref()
+            .context("the aero run needs the half car ([physical] structure)")?;
+        let params = self
+            .aero_params()
+            .context("the aero run needs [numerical.aero]")?;
+        let forces = mil_rig::rigs::aero_static_demand(&params, start_speed_m_per_s);
+        let mut model = car.model.clone();
+        for (name, force) in car.actuators.iter().zip(forces) {
+            model = model.with_static_n(name, force).map_err(|e| {
+                anyhow::anyhow!(
+                    "physical.structure: the half car under the static down force {forces:?} N \
+                     at {start_speed_m_per_s} m/s: {e}"
+                )
+            })?;
+        }
+        mil_rig::specimen::Specimen::from_structure(&model, &car.axles)
+            .map_err(|e| anyhow::anyhow!("physical.structure: {e}"))
     }
 
     /// Number of actuator channels of the configured model.
@@ -418,18 +454,36 @@ impl Config {
     pub fn validate_sim(&self) -> Result<Validated> {
         let validated = self.validate()?;
         if let (ModelKind::Tyre, Some(tyre)) = (self.model.kind, &self.tyre) {
-            let car = self.quarter_car();
-            let weight = wheel_weight_n(&car);
+            let car = self
+                .rig
+                .quarter_car
+                .as_ref()
+                .context("the tyre run needs the quarter car ([physical] structure)")?;
             let load = f64::from(tyre.static_load_n);
-            if (load - weight).abs() > 0.5 {
-                let kg =
-                    (load * mil_rig::specimen::GRAVITY_M_PER_S2 - weight).abs() < 0.01 * weight;
-                bail!(
-                    "numerical.tyre.static_load_n is {load} N, but the rig's quarter car weighs {weight:.1} N \
-                     ((m_s + m_u) g): the rig would not start at rest{}",
-                    if kg { " (the load given in kg?)" } else { "" }
-                );
-            }
+            car.validate()
+                .and_then(|()| {
+                    car.check_near_rest(&[load], mil_rig::specimen::STATIC_DEMAND_TOLERANCE)
+                })
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "numerical.tyre.static_load_n = {load} N: the rig's quarter car: {e}"
+                    )
+                })?;
+        }
+        if let Validated::Aero(_, speed) = &validated {
+            let start = speed.at(0.0);
+            let car = self.half_car_specimen(start)?;
+            let params = self
+                .aero_params()
+                .context("the aero run needs [numerical.aero]")?;
+            car.validate()
+                .and_then(|()| {
+                    car.check_near_rest(
+                        &mil_rig::rigs::aero_static_demand(&params, start),
+                        mil_rig::specimen::STATIC_DEMAND_TOLERANCE,
+                    )
+                })
+                .map_err(|e| anyhow::anyhow!("the rig's half car: {e}"))?;
         }
         if self.model.kind == ModelKind::Substructure {
             let channels = self.channels();
@@ -518,6 +572,7 @@ impl Config {
                     rear_axle: a.rear_axle_m,
                     ..AeroParams::PAPER
                 };
+                debug_assert_eq!(Some(aero), self.aero_params());
                 let speed = self.speed_profile()?;
                 PreparedParams::new(&l.params(aero, filter), dt)
                     .map(|p| Validated::Aero(Box::new(p), speed))
@@ -559,11 +614,6 @@ impl Config {
     }
 }
 
-/// The weight a quarter car puts on its hub (N): `(m_s + m_u) g`, the tyre's static load.
-pub fn wheel_weight_n(car: &mil_params::TyreExample) -> f64 {
-    (car.sprung_mass_kg + car.unsprung_mass_kg) * mil_rig::specimen::GRAVITY_M_PER_S2
-}
-
 /// The set-up key that carries a model-core parameter.
 fn set_up_key(field: model_core::params::Field) -> &'static str {
     use model_core::params::Field as F;
@@ -576,7 +626,7 @@ fn set_up_key(field: model_core::params::Field) -> &'static str {
         F::AeroStiffness => "numerical.aero.stiffness",
         F::AeroNominalForce => "numerical.aero.nominal_force",
         F::AeroReferenceSpeed => "numerical.aero.reference_speed_m_per_s",
-        F::AeroAxleDistance => "physical.half_car front_axle_m / rear_axle_m",
+        F::AeroAxleDistance => "numerical.aero front_axle_m / rear_axle_m",
         F::SubstructureDof
         | F::SubstructureMass
         | F::SubstructureDamping
@@ -740,7 +790,12 @@ mod tests {
     use std::path::Path;
 
     fn run(text: &str) -> anyhow::Result<Validated> {
-        SetUp::from_toml(text, Path::new("."))?.run()?.validate()
+        SetUp::from_toml(
+            text,
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples"),
+        )?
+        .run()?
+        .validate()
     }
 
     #[test]
@@ -752,7 +807,11 @@ mod tests {
     fn typos_and_bad_values_are_rejected() {
         let typo = DEFAULT_SETUP.replace("stiffness_n_per_m = 2.5e5", "stifness_n_per_m = 2.5e5");
         assert_ne!(typo, DEFAULT_SETUP);
-        assert!(SetUp::from_toml(&typo, Path::new(".")).is_err());
+        assert!(SetUp::from_toml(
+            &typo,
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples")
+        )
+        .is_err());
         let negative =
             DEFAULT_SETUP.replace("damping_n_s_per_m = 500.0", "damping_n_s_per_m = -1.0");
         assert_ne!(negative, DEFAULT_SETUP);

@@ -310,7 +310,7 @@ fn main() -> std::process::ExitCode {
 fn set_up(path: Option<&Path>, filter: Option<&Path>) -> Result<SetUp> {
     let mut s = match path {
         Some(path) => SetUp::read(path)?,
-        None => SetUp::from_toml(mil::setup::DEFAULT_SETUP, Path::new("."))?,
+        None => SetUp::builtin()?,
     };
     if let Some(f) = filter {
         s.controller.filter = if f == Path::new("none") {

@@ -286,10 +286,13 @@ mod tests {
         let sweep =
             "road = { kind = \"sweep\", amplitude_m = 0.004, start_hz = 0.5, end_hz = 30.0 }";
         let text = DEFAULT_SETUP.replace(pink, sweep);
-        let c = SetUp::from_toml(&text, Path::new("."))
-            .unwrap()
-            .run()
-            .unwrap();
+        let c = SetUp::from_toml(
+            &text,
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples"),
+        )
+        .unwrap()
+        .run()
+        .unwrap();
         let out = run(&c, |_| {}).unwrap();
         assert_eq!(out.summary.samples, 40_000);
         assert!(out.summary.fault_at_s.is_none());

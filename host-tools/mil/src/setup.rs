@@ -14,16 +14,20 @@
 //! [numerical.tyre]               # the board's model: tyre, aero, or a structure file
 //! stiffness_n_per_m = 2.5e5
 //! damping_n_s_per_m = 500.0
-//! [physical.quarter_car]         # what the rig holds: quarter car, half car, or a structure
+//! [physical]                     # what the rig holds: a structure file
+//! structure = "tyre-physical.toml"
 //! [excitation]
 //! duration_s = 20.0
 //! road = { kind = "pink", rms_m = 0.0005, max_hz = 40.0, seed = 1 }
 //! ```
 //!
-//! The pairs: the numerical tyre on the physical quarter car (four wheels, a hub actuator
-//! each), the numerical aero model on the physical half car (front and rear down-force
-//! actuators), or a numerical structure on a physical structure joined by
-//! `[[interface.channels]]` (one actuator each). Every configuration of the paper can be
+//! The physical part is always a structure file. The pairs: the numerical tyre on a
+//! structure hanging on one hub actuator (its one force input; four wheels, a hub actuator
+//! each), the numerical aero model on a half car standing on two posts with two down-force
+//! actuators (its two displacement and two force inputs), or a numerical structure on a
+//! physical structure joined by `[[interface.channels]]` (one actuator each). The analysis
+//! takes the tyre and the aero model as the interface `B_i` of a custom model. Every
+//! configuration of the paper can be
 //! analysed; the board and the simulated rig run configuration 4 (force control, `B_i`
 //! numerical), which is what model-core's models compute.
 
@@ -35,21 +39,28 @@ use crate::config::{
 use crate::signals::{RoadInput, SpeedInput};
 use anyhow::{bail, Context, Result};
 use mil_analysis::setup::{
-    ActuatorSection, AnalysisSection, InterfaceSection, ModelSection as AnalysisModel,
-    NoiseSection, PartSection, ResponseEntry, ResponseSection, Setup, SetupFile,
+    ActuatorSection, AnalysisSection, ForceSection, InputSection, InterfaceSection,
+    ModelSection as AnalysisModel, NoiseSection, PartSection, ResponseEntry, ResponseSection,
+    Setup, SetupFile,
 };
 use mil_params::{AeroExample, TyreExample, TyreVelocity};
 use mil_params::{PositionServoActuator, ServoHydraulicActuator};
 use mil_rig::actuator::ActuatorEffects;
 use mil_structure::model::InputKind;
-use mil_structure::{EffectKind, Element, Parameters};
+use mil_structure::{EffectKind, Parameters};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The paper's tyre example, built into the tool: `mil sim` and `mil run` without a file
-/// use it.
+/// use it ([`SetUp::builtin`]).
 pub const DEFAULT_SETUP: &str = include_str!("../examples/tyre.toml");
+
+/// The built-in tyre example's physical part, [`DEFAULT_SETUP`]'s `[physical] structure`.
+pub const DEFAULT_PHYSICAL: &str = include_str!("../examples/tyre-physical.toml");
+
+/// The file name [`DEFAULT_SETUP`] gives its physical part.
+const DEFAULT_PHYSICAL_FILE: &str = "tyre-physical.toml";
 
 /// The whole set-up file.
 #[derive(Clone, Debug, Deserialize)]
@@ -93,6 +104,9 @@ pub struct SetUp {
     /// Folder of the file (relative names); not read from TOML.
     #[serde(skip)]
     pub base: PathBuf,
+    /// The built-in set-up: its physical part is [`DEFAULT_PHYSICAL`]; not read from TOML.
+    #[serde(skip)]
+    builtin: bool,
 }
 
 /// `[controller]`: the board.
@@ -158,8 +172,7 @@ fn tyre_cutoff() -> f32 {
     model_core::TyreParams::PAPER.velocity_cutoff_hz
 }
 
-/// `[numerical.aero]`: model-core's aerodynamic model (`AeroParams`, linear form); its axle
-/// distances are the half car's.
+/// `[numerical.aero]`: model-core's aerodynamic model (`AeroParams`, linear form).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NumericalAero {
@@ -170,83 +183,33 @@ pub struct NumericalAero {
     pub nominal_force: [f32; 2],
     /// Reference speed of `stiffness` and `nominal_force` (m/s).
     pub reference_speed_m_per_s: f32,
+    /// Body reference point (where `z` and `θ` are) to the front axle (m): the model turns
+    /// the axle displacements into `[z; θ]` and its force and moment into axle forces with
+    /// it and `rear_axle_m`.
+    pub front_axle_m: f32,
+    /// Body reference point to the rear axle (m).
+    pub rear_axle_m: f32,
 }
 
-/// `[physical]`: one of `quarter_car`, `half_car` or `structure`.
+/// `[physical]`: what stands on the rig.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Physical {
-    /// The tyre example's quarter car on a hub actuator (four wheels).
-    pub quarter_car: Option<QuarterCar>,
-    /// The aero example's half car on a four-poster.
-    pub half_car: Option<HalfCar>,
-    /// A structure file (`mil diagnose`'s schema: its `updated.toml` fits here). On the
-    /// rig its springs carry its weight.
+    /// A structure file (`mil diagnose`'s schema: its `updated.toml` fits here). Under the
+    /// numerical tyre: one wheel's quarter car, hanging on its hub actuator (its one force
+    /// input, whose `static_n` is the static wheel load). Under the aero model: the half car
+    /// on the four-poster's two posts (its two displacement inputs, front then rear) with
+    /// the front and rear down-force actuators (its two force inputs). Under a numerical
+    /// structure: its springs carry its weight.
     pub structure: Option<PathBuf>,
     /// The run's road each displacement input of the structure follows: `"road_0"`… or
     /// `"fixed"` (the rig's bed).
     #[serde(default)]
     pub roads: BTreeMap<String, String>,
-}
-
-/// `[physical.quarter_car]`: paper values by default.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct QuarterCar {
-    /// Sprung mass `m_s` (kg).
-    pub sprung_mass_kg: f64,
-    /// Unsprung mass `m_u` (kg).
-    pub unsprung_mass_kg: f64,
-    /// The suspension between them (its preload follows from the weight); the analysis
-    /// takes its linear part.
-    pub suspension: Element,
-    /// The real tyre's effects (the emulated vehicle's); default lift-off as the numerical
-    /// tyre has it. Effects here and not in the board's tyre are hidden effects.
+    /// Under the numerical tyre: the real tyre's effects (the emulated vehicle's); default
+    /// lift-off as the numerical tyre has it. Effects here and not in the board's tyre are
+    /// hidden effects.
     pub tyre_effects: Option<BTreeMap<EffectKind, Parameters>>,
-}
-
-impl Default for QuarterCar {
-    fn default() -> Self {
-        let car = TyreExample::default();
-        Self {
-            sprung_mass_kg: car.sprung_mass_kg,
-            unsprung_mass_kg: car.unsprung_mass_kg,
-            suspension: Element::linear(car.suspension_stiffness, car.suspension_damping),
-            tyre_effects: None,
-        }
-    }
-}
-
-/// `[physical.half_car]`: paper values by default.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct HalfCar {
-    /// Body mass (kg).
-    pub body_mass_kg: f64,
-    /// Pitch inertia (kg m²).
-    pub pitch_inertia_kg_m2: f64,
-    /// Centroid to front axle (m).
-    pub front_axle_m: f64,
-    /// Centroid to rear axle (m).
-    pub rear_axle_m: f64,
-    /// Front suspension (wheels and tyres lumped), post to axle.
-    pub front_suspension: Element,
-    /// Rear suspension.
-    pub rear_suspension: Element,
-}
-
-impl Default for HalfCar {
-    fn default() -> Self {
-        let car = AeroExample::default();
-        Self {
-            body_mass_kg: car.body_mass_kg,
-            pitch_inertia_kg_m2: car.pitch_inertia_kg_m2,
-            front_axle_m: car.front_axle_m,
-            rear_axle_m: car.rear_axle_m,
-            front_suspension: Element::linear(car.front_stiffness, car.front_damping),
-            rear_suspension: Element::linear(car.rear_stiffness, car.rear_damping),
-        }
-    }
 }
 
 /// `[interface]`: the actuators between a numerical and a physical structure.
@@ -357,8 +320,8 @@ impl Default for Simulation {
 
 /// What the two parts are.
 enum Pair<'a> {
-    Tyre(&'a NumericalTyre, &'a QuarterCar),
-    Aero(&'a NumericalAero, &'a HalfCar),
+    Tyre(&'a NumericalTyre, &'a Path),
+    Aero(&'a NumericalAero, &'a Path),
     Structures(&'a Path, &'a Path, &'a InterfaceSetUp),
 }
 
@@ -371,6 +334,146 @@ impl SetUp {
         let mut s: SetUp = toml::from_str(text).context("invalid MiL set-up")?;
         s.base = base.to_path_buf();
         Ok(s)
+    }
+
+    /// The built-in tyre example ([`DEFAULT_SETUP`] with [`DEFAULT_PHYSICAL`]).
+    ///
+    /// # Errors
+    /// None for the shipped text (tested).
+    pub fn builtin() -> Result<Self> {
+        let mut s = Self::from_toml(DEFAULT_SETUP, Path::new("."))?;
+        s.builtin = true;
+        Ok(s)
+    }
+
+    /// The four-poster's half car from `[physical] structure`: its two force inputs are the
+    /// front and rear down-force actuators (their `at` the axle points), its two
+    /// displacement inputs the front and rear posts, in file order. Where the axle points
+    /// are heave-and-pitch rows `[1, −a]`, `[1, b]` of the structure's two DOFs, `a` and `b`
+    /// must be the aero model's axle distances.
+    fn half_car(&self, file: &Path, aero: &NumericalAero) -> Result<HalfCarOnRig> {
+        let model = self.structure(file, "physical.structure")?;
+        let of_kind = |kind: InputKind| -> Vec<usize> {
+            (0..model.inputs.len())
+                .filter(|&j| model.inputs[j].kind == kind)
+                .collect()
+        };
+        let (forces, posts) = (of_kind(InputKind::Force), of_kind(InputKind::Displacement));
+        let (&[front, rear], &[post_front, post_rear]) = (&forces[..], &posts[..]) else {
+            bail!(
+                "physical.structure {}: under the aero model the half car stands on two posts \
+                 (two displacement inputs, front then rear) with two down-force actuators (two \
+                 force inputs at the axles, front then rear); it has {} and {}",
+                file.display(),
+                posts.len(),
+                forces.len()
+            );
+        };
+        let at = |j: usize| -> Result<String> {
+            model.file.inputs[j]
+                .at
+                .clone()
+                .context("physical.structure: a force input acts nowhere")
+        };
+        let axles = [at(front)?, at(rear)?];
+        let rows: Vec<Vec<f64>> = axles.iter().filter_map(|a| model.position_of(a)).collect();
+        if let [f, r] = &rows[..] {
+            if f.len() == 2 && f[0] == 1.0 && r[0] == 1.0 {
+                for (key, structure, numerical) in [
+                    ("front_axle_m", -f[1], aero.front_axle_m),
+                    ("rear_axle_m", r[1], aero.rear_axle_m),
+                ] {
+                    if (structure - f64::from(numerical)).abs() > 1e-3 {
+                        bail!(
+                            "numerical.aero.{key} = {numerical} m, but the physical structure's \
+                             axle is {structure} m from its reference point: the model would put \
+                             its forces elsewhere than the actuators are"
+                        );
+                    }
+                }
+            }
+        }
+        Ok(HalfCarOnRig {
+            actuators: [
+                model.inputs[front].name.clone(),
+                model.inputs[rear].name.clone(),
+            ],
+            model,
+            axles,
+            posts: [post_front, post_rear],
+        })
+    }
+
+    /// Reads a structure file of the set-up (`what` names its key in messages).
+    fn structure(&self, file: &Path, what: &str) -> Result<mil_structure::Model> {
+        if self.builtin && file == Path::new(DEFAULT_PHYSICAL_FILE) {
+            return mil_structure::Model::from_toml(DEFAULT_PHYSICAL)
+                .map_err(|e| anyhow::anyhow!("{what} (built in): {e}"));
+        }
+        mil_structure::Model::read(&self.base.join(file))
+            .map_err(|e| anyhow::anyhow!("{what}: {e}"))
+    }
+
+    /// The tyre rig's quarter car from `[physical] structure`: its one force input is the
+    /// hub actuator (where the tyre acts), whose static force becomes the tyre's static
+    /// load (`numerical.tyre.static_load_n`, default the input's `static_n`).
+    fn quarter_car(&self, file: &Path, tyre: &NumericalTyre) -> Result<QuarterCarOnRig> {
+        let model = self.structure(file, "physical.structure")?;
+        let forces: Vec<&mil_structure::model::Input> = model
+            .inputs
+            .iter()
+            .filter(|i| i.kind == InputKind::Force)
+            .collect();
+        let [hub] = forces[..] else {
+            bail!(
+                "physical.structure {}: under the numerical tyre the quarter car hangs on one \
+                 hub actuator: give it one force input at the hub (kind = \"force\", at = the \
+                 hub, static_n = the car's weight), not {}",
+                file.display(),
+                forces.len()
+            );
+        };
+        if let Some(post) = model
+            .inputs
+            .iter()
+            .find(|i| i.kind == InputKind::Displacement)
+        {
+            bail!(
+                "physical.structure {}: under the numerical tyre the quarter car stands on its \
+                 hub actuator only, but it has the displacement input {:?} (the tyre to the road \
+                 is the numerical model's)",
+                file.display(),
+                post.name
+            );
+        }
+        // Where the hub actuator acts, as the file names it.
+        let at = model
+            .file
+            .inputs
+            .iter()
+            .find(|i| i.name == hub.name)
+            .and_then(|i| i.at.clone())
+            .context("physical.structure: the hub actuator acts nowhere")?;
+        let load = tyre.static_load_n.unwrap_or(hub.static_n as f32);
+        let weight: f64 = -model.static_force.iter().sum::<f64>();
+        let static_n = hub.static_n;
+        let model = model
+            .with_static_n(&hub.name, f64::from(load))
+            .map_err(|_| {
+                let kg = (f64::from(load) * mil_rig::specimen::GRAVITY_M_PER_S2 - weight).abs()
+                    < 0.01 * weight;
+                anyhow::anyhow!(
+                    "numerical.tyre.static_load_n = {load} N does not hold the physical quarter \
+                     car at rest: it weighs {weight:.1} N, and its hub actuator's static_n in \
+                     physical.structure is {static_n} N{}",
+                    if kg { " -- the load given in kg?" } else { "" }
+                )
+            })?;
+        Ok(QuarterCarOnRig {
+            model,
+            hub: at,
+            load,
+        })
     }
 
     /// Reads and parses a set-up file.
@@ -389,29 +492,28 @@ impl SetUp {
         let numerical = usize::from(n.tyre.is_some())
             + usize::from(n.aero.is_some())
             + usize::from(n.structure.is_some());
-        let physical = usize::from(p.quarter_car.is_some())
-            + usize::from(p.half_car.is_some())
-            + usize::from(p.structure.is_some());
+        let physical = usize::from(p.structure.is_some());
         if numerical != 1 {
             bail!("[numerical]: give one of tyre, aero or structure");
         }
         if physical != 1 {
-            bail!("[physical]: give one of quarter_car, half_car or structure");
+            bail!("[physical]: give the structure on the rig (structure = \"file.toml\")");
         }
         let pair = match (n, p) {
             (
                 Numerical { tyre: Some(t), .. },
                 Physical {
-                    quarter_car: Some(q),
+                    structure: Some(ps),
                     ..
                 },
-            ) => Pair::Tyre(t, q),
+            ) => Pair::Tyre(t, ps),
             (
                 Numerical { aero: Some(a), .. },
                 Physical {
-                    half_car: Some(h), ..
+                    structure: Some(ps),
+                    ..
                 },
-            ) => Pair::Aero(a, h),
+            ) => Pair::Aero(a, ps),
             (
                 Numerical {
                     structure: Some(ns),
@@ -429,18 +531,21 @@ impl SetUp {
                      DOFs each actuator joins)",
                 )?,
             ),
-            _ => bail!(
-                "[numerical] and [physical] do not pair: the numerical tyre goes with the \
-                 physical quarter_car, aero with half_car, a structure with a structure"
-            ),
+            _ => bail!("[numerical]: give one of tyre, aero or structure"),
         };
         if !matches!(pair, Pair::Structures(..)) {
             if self.interface.is_some() {
                 bail!("[interface] is for a numerical and a physical structure");
             }
             if !(n.roads.is_empty() && p.roads.is_empty()) {
-                bail!("roads are for structures' displacement inputs");
+                bail!(
+                    "roads are for structures' displacement inputs (the tyre's quarter car \
+                     stands on its hub actuator only)"
+                );
             }
+        }
+        if p.tyre_effects.is_some() && !matches!(pair, Pair::Tyre(..)) {
+            bail!("physical.tyre_effects is for the numerical tyre (the real tyre's effects)");
         }
         if !matches!(pair, Pair::Aero(..))
             && (self.excitation.speed.is_some() || self.excitation.speed_m_per_s.is_some())
@@ -460,27 +565,48 @@ impl SetUp {
     pub fn analysis(&self) -> Result<Setup> {
         let c = &self.controller;
         let control_force = self.actuator.control == "force";
-        let mut model = AnalysisModel {
-            example: String::new(),
+        // Every pair is a custom model: the tyre and the aero model its interface B_i.
+        let model = AnalysisModel {
+            example: "custom".into(),
             tyre: TyreExample::default(),
             aero: AeroExample::default(),
             two_dof: Default::default(),
         };
-        let (mut numerical, mut physical, mut interface) = (None, None, None);
+        let mut numerical = None;
+        let physical: Option<PartSection>;
+        let interface: Option<InterfaceSection>;
+        let mut inputs = Vec::new();
         let default_responses: Vec<ResponseSection>;
         match self.pair()? {
-            Pair::Tyre(t, q) => {
-                model.example = "tyre".into();
-                model.tyre = TyreExample {
-                    sprung_mass_kg: q.sprung_mass_kg,
-                    suspension_stiffness: q.suspension.stiffness_n_per_m,
-                    suspension_damping: q.suspension.damping_n_s_per_m,
-                    unsprung_mass_kg: q.unsprung_mass_kg,
-                    tyre_stiffness: f64::from(t.stiffness_n_per_m),
-                    tyre_damping: f64::from(t.damping_n_s_per_m),
-                    velocity_cutoff_hz: f64::from(t.velocity_cutoff_hz),
-                    velocity_estimate: t.velocity_estimate,
-                };
+            Pair::Tyre(t, ps) => {
+                // The tyre is the interface B_i = k_t + c_t V(s) between the road (the
+                // numerical interface position) and the hub.
+                let car = self.quarter_car(ps, t)?;
+                physical = Some(PartSection {
+                    dofs: vec![],
+                    mass: vec![],
+                    damping: vec![],
+                    stiffness: vec![],
+                    structure: Some(ps.to_path_buf()),
+                    model: Some(car.model),
+                });
+                // The board's velocity estimate; under position control the tyre turns the
+                // measured force into a position through B_i⁻¹ without one.
+                let board = t.velocity_estimate == TyreVelocity::Board && control_force;
+                interface = Some(InterfaceSection {
+                    location: "numerical".into(),
+                    numerical_dofs: vec![],
+                    physical_dofs: vec![car.hub],
+                    stiffness: vec![vec![f64::from(t.stiffness_n_per_m)]],
+                    damping: vec![vec![f64::from(t.damping_n_s_per_m)]],
+                    velocity_cutoff_hz: board.then_some(f64::from(t.velocity_cutoff_hz)),
+                });
+                inputs.push(InputSection {
+                    name: "road".into(),
+                    unit: "m".into(),
+                    forces: vec![],
+                    interface_position: vec![1.0],
+                });
                 default_responses = vec![response(
                     "tyre force / road",
                     "road",
@@ -489,19 +615,74 @@ impl SetUp {
                     "N/mm",
                 )];
             }
-            Pair::Aero(a, h) => {
-                model.example = "aero".into();
-                model.aero = AeroExample {
-                    body_mass_kg: h.body_mass_kg,
-                    pitch_inertia_kg_m2: h.pitch_inertia_kg_m2,
-                    front_stiffness: h.front_suspension.stiffness_n_per_m,
-                    front_damping: h.front_suspension.damping_n_s_per_m,
-                    rear_stiffness: h.rear_suspension.stiffness_n_per_m,
-                    rear_damping: h.rear_suspension.damping_n_s_per_m,
-                    front_axle_m: h.front_axle_m,
-                    rear_axle_m: h.rear_axle_m,
-                    aero_stiffness: a.stiffness.map(|r| r.map(f64::from)),
+            Pair::Aero(a, ps) => {
+                // The model's K_i in axle coordinates: F_a = L⁻ᵀ K_i L⁻¹ x_a, B_i = −that.
+                let car = self.half_car(ps, a)?;
+                let (lf, lr) = (f64::from(a.front_axle_m), f64::from(a.rear_axle_m));
+                let l_inv = mil_numerics::dense::invert(&[vec![1.0, -lf], vec![1.0, lr]])
+                    .context("numerical.aero: the axles coincide (front_axle_m = -rear_axle_m)")?;
+                let k_i = |r: usize, c: usize| f64::from(a.stiffness[r][c]);
+                let b: Vec<Vec<f64>> = (0..2)
+                    .map(|r| {
+                        (0..2)
+                            .map(|c| {
+                                let mut sum = 0.0;
+                                for p in 0..2 {
+                                    for q in 0..2 {
+                                        sum += l_inv[p * 2 + r] * k_i(p, q) * l_inv[q * 2 + c];
+                                    }
+                                }
+                                -sum
+                            })
+                            .collect()
+                    })
+                    .collect();
+                // The posts together (heave) and in pitch: r = L [z_r; θ_r].
+                let linear = car.model.linearised();
+                let post_force = |w: [f64; 2]| -> Vec<ForceSection> {
+                    (0..car.model.n())
+                        .map(|d| {
+                            let (mut stiffness, mut damping) = (0.0, 0.0);
+                            for (w, j) in w.iter().zip(car.posts) {
+                                stiffness += w * linear.input_stiffness[(d, j)];
+                                damping += w * linear.input_damping[(d, j)];
+                            }
+                            ForceSection {
+                                part: "physical".into(),
+                                dof: car.model.dofs[d].clone(),
+                                stiffness,
+                                damping,
+                            }
+                        })
+                        .collect()
                 };
+                for (name, unit, w) in [
+                    ("road_heave", "m", [1.0, 1.0]),
+                    ("road_pitch", "rad", [-lf, lr]),
+                ] {
+                    inputs.push(InputSection {
+                        name: name.into(),
+                        unit: unit.into(),
+                        forces: post_force(w),
+                        interface_position: vec![],
+                    });
+                }
+                physical = Some(PartSection {
+                    dofs: vec![],
+                    mass: vec![],
+                    damping: vec![],
+                    stiffness: vec![],
+                    structure: Some(ps.to_path_buf()),
+                    model: Some(car.model),
+                });
+                interface = Some(InterfaceSection {
+                    location: "numerical".into(),
+                    numerical_dofs: vec![],
+                    physical_dofs: car.axles.to_vec(),
+                    stiffness: b,
+                    damping: vec![vec![0.0; 2]; 2],
+                    velocity_cutoff_hz: None,
+                });
                 default_responses = vec![
                     response(
                         "body vertical / road heave",
@@ -520,13 +701,13 @@ impl SetUp {
                 ];
             }
             Pair::Structures(ns, ps, i) => {
-                model.example = "custom".into();
                 let part = |file: &Path| PartSection {
                     dofs: vec![],
                     mass: vec![],
                     damping: vec![],
                     stiffness: vec![],
                     structure: Some(file.to_path_buf()),
+                    model: None,
                 };
                 numerical = Some(part(ns));
                 physical = Some(part(ps));
@@ -593,7 +774,7 @@ impl SetUp {
             numerical,
             physical,
             interface,
-            inputs: vec![],
+            inputs,
             actuator: ActuatorSection {
                 control: self.actuator.control.clone(),
                 tracking: self.actuator.tracking.clone(),
@@ -637,15 +818,9 @@ impl SetUp {
         };
         let (mut tyre, mut aero, mut substructure) = (None, None, None);
         let (kind, analysis_inputs) = match self.pair()? {
-            Pair::Tyre(t, q) => {
-                let car = TyreExample {
-                    sprung_mass_kg: q.sprung_mass_kg,
-                    unsprung_mass_kg: q.unsprung_mass_kg,
-                    ..TyreExample::default()
-                };
-                let load = t
-                    .static_load_n
-                    .unwrap_or(crate::config::wheel_weight_n(&car) as f32);
+            Pair::Tyre(t, ps) => {
+                let car = self.quarter_car(ps, t)?;
+                let load = car.load;
                 tyre = Some(TyreSection {
                     stiffness_n_per_m: t.stiffness_n_per_m,
                     damping_n_s_per_m: t.damping_n_s_per_m,
@@ -653,29 +828,28 @@ impl SetUp {
                     lift_off: t.lift_off,
                     velocity_cutoff_hz: t.velocity_cutoff_hz,
                 });
-                rig.quarter_car = Some(car);
-                rig.suspension = Some(q.suspension.clone());
-                rig.tyre_effects = q.tyre_effects.clone();
+                rig.quarter_car = Some(
+                    mil_rig::specimen::Specimen::from_structure(&car.model, &[car.hub])
+                        .map_err(|e| anyhow::anyhow!("physical.structure {}: {e}", ps.display()))?,
+                );
+                rig.tyre_effects = self.physical.tyre_effects.clone();
                 (ModelKind::Tyre, vec!["road".to_string()])
             }
-            Pair::Aero(a, h) => {
+            Pair::Aero(a, ps) => {
                 aero = Some(AeroSection {
                     stiffness: a.stiffness,
                     nominal_force: a.nominal_force,
                     reference_speed_m_per_s: a.reference_speed_m_per_s,
-                    front_axle_m: h.front_axle_m as f32,
-                    rear_axle_m: h.rear_axle_m as f32,
+                    front_axle_m: a.front_axle_m,
+                    rear_axle_m: a.rear_axle_m,
                     speed_m_per_s: self.excitation.speed_m_per_s.map(|v| v as f32),
                 });
-                rig.half_car = Some(AeroExample {
-                    body_mass_kg: h.body_mass_kg,
-                    pitch_inertia_kg_m2: h.pitch_inertia_kg_m2,
-                    front_axle_m: h.front_axle_m,
-                    rear_axle_m: h.rear_axle_m,
-                    ..AeroExample::default()
+                let car = self.half_car(ps, a)?;
+                rig.half_car = Some(crate::config::HalfCarOnRig {
+                    model: car.model,
+                    axles: car.axles,
+                    actuators: car.actuators,
                 });
-                rig.front_suspension = Some(h.front_suspension.clone());
-                rig.rear_suspension = Some(h.rear_suspension.clone());
                 (ModelKind::Aero, vec!["road_heave".to_string()])
             }
             Pair::Structures(ns, ps, i) => {
@@ -860,6 +1034,24 @@ impl SetUp {
     }
 }
 
+/// The four-poster's half car: the structure, its axle points (where the two force inputs
+/// act), the force inputs' names and its two displacement inputs' indices (front and rear
+/// post).
+struct HalfCarOnRig {
+    model: mil_structure::Model,
+    axles: [String; 2],
+    actuators: [String; 2],
+    posts: [usize; 2],
+}
+
+/// The tyre rig's quarter car: the structure with the hub actuator holding the static wheel
+/// load, where it acts, and the load.
+struct QuarterCarOnRig {
+    model: mil_structure::Model,
+    hub: String,
+    load: f32,
+}
+
 /// The displacement inputs of the structure files `parts` (relative to `base`), in order.
 fn structure_inputs(parts: &[&Path], base: &Path) -> Result<Vec<String>> {
     let mut names = Vec::new();
@@ -985,27 +1177,80 @@ mod tests {
         assert!(e.contains("linear") && e.contains("CubicStiffness"), "{e}");
     }
 
-    /// The tyre's static load defaults to the quarter car's weight, and one that does not
-    /// balance it (a load in kg) is refused.
+    /// The physical structures the tyre and the aero model need are checked when the set-up
+    /// is read, naming the file and what is missing: the whole quarter car on the road (the
+    /// tyre twice), a second hub actuator, a half car without its posts, axles elsewhere
+    /// than the aero model puts its forces.
+    #[test]
+    fn physical_structures_that_do_not_fit_the_model_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["tyre.toml", "aero.toml"] {
+            std::fs::copy(examples().join(f), dir.path().join(f)).unwrap();
+        }
+        let refused = |set_up: &str, file: &str, text: String| -> String {
+            std::fs::write(dir.path().join(file), text).unwrap();
+            match SetUp::read(&dir.path().join(set_up)).and_then(|s| s.sim()) {
+                Ok(_) => panic!("accepted {file}"),
+                Err(e) => format!("{e:#}"),
+            }
+        };
+        let tyre = std::fs::read_to_string(examples().join("tyre-physical.toml")).unwrap();
+        let on_road = std::fs::read_to_string(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../diagnose/examples/tyre.toml"),
+        )
+        .unwrap();
+        let e = refused("tyre.toml", "tyre-physical.toml", on_road.clone());
+        assert!(e.contains("hub actuator") && e.contains("not 0"), "{e}");
+        let e = refused(
+            "tyre.toml",
+            "tyre-physical.toml",
+            on_road.replace("[[input]]", "[[input]]\nname = \"hub\"\nkind = \"force\"\ncolumn = \"f\"\nat = \"x_u\"\n\n[[input]]"),
+        );
+        assert!(e.contains("displacement input \"road\""), "{e}");
+        let twice = tyre.clone()
+            + "\n[[input]]\nname = \"second\"\nkind = \"force\"\ncolumn = \"f\"\nat = \"x_s\"\n";
+        let e = refused("tyre.toml", "tyre-physical.toml", twice);
+        assert!(e.contains("one force input") && e.contains("not 2"), "{e}");
+        let aero = std::fs::read_to_string(examples().join("aero-physical.toml")).unwrap();
+        let no_posts = aero
+            .replace("lower = \"road_front\"", "lower = \"ground\"")
+            .replace("lower = \"road_rear\"", "lower = \"ground\"")
+            .replace(
+                "kind = \"displacement\"\ncolumn = \"road_",
+                "kind = \"force\"\nat = \"z_b\"\ncolumn = \"road_",
+            );
+        let e = refused("aero.toml", "aero-physical.toml", no_posts);
+        assert!(e.contains("two posts"), "{e}");
+        let moved = aero.replace("theta_b = -1.8", "theta_b = -1.6");
+        let e = refused("aero.toml", "aero-physical.toml", moved);
+        assert!(e.contains("numerical.aero.front_axle_m"), "{e}");
+    }
+
+    /// The tyre's static load defaults to the hub actuator's static force in the physical
+    /// structure (the quarter car's weight); one that does not balance it (a load in kg) is
+    /// refused; the built-in set-up is the example's.
     #[test]
     fn the_static_wheel_load_is_the_weight() {
-        let c = SetUp::from_toml(DEFAULT_SETUP, Path::new("."))
+        let c = SetUp::builtin().unwrap().run().unwrap();
+        let load = c.tyre.as_ref().unwrap().static_load_n;
+        assert!((f64::from(load) - 170.0 * 9.81).abs() < 1e-3, "{load}");
+        c.validate_sim().unwrap();
+        let from_file = SetUp::read(&examples().join("tyre.toml"))
             .unwrap()
             .run()
             .unwrap();
-        let load = c.tyre.as_ref().unwrap().static_load_n;
-        assert!((f64::from(load) - 170.0 * 9.81).abs() < 1e-3, "{load}");
-        let kg = DEFAULT_SETUP.replace(
-            "# static_load_n: the quarter car's weight",
-            "static_load_n = 170.0\n# static_load_n: the quarter car's weight",
+        assert_eq!(
+            from_file.rig.quarter_car.as_ref(),
+            c.rig.quarter_car.as_ref()
         );
-        let e = SetUp::from_toml(&kg, Path::new("."))
-            .unwrap()
-            .run()
-            .unwrap()
-            .validate_sim()
-            .unwrap_err()
-            .to_string();
+        let marker = "# static_load_n: the hub actuator's static_n";
+        assert!(DEFAULT_SETUP.contains(marker));
+        let kg = DEFAULT_SETUP.replace(marker, &format!("static_load_n = 170.0\n{marker}"));
+        let e = SetUp::from_toml(&kg, &examples())
+            .and_then(|s| s.run())
+            .and_then(|c| c.validate_sim())
+            .unwrap_err();
+        let e = format!("{e:#}");
         assert!(e.contains("static_load_n") && e.contains("kg"), "{e}");
     }
 }

@@ -24,7 +24,6 @@ use mil_rig::actuator::ForceActuator;
 use mil_rig::experiment::{self, Experiment, Outcome, Setting};
 use mil_rig::harness::{Histories, Instrumentation, LinkStatistics};
 use mil_rig::metrics::{compare, Comparison};
-use mil_rig::specimen::Specimen;
 use mil_structure::{EffectKind, Element};
 use model_core::{Mode, Status};
 use num_complex::Complex64;
@@ -295,12 +294,11 @@ fn setting(config: &Config, validated: Validated) -> Result<Setting> {
                 .tyre
                 .as_ref()
                 .context("the tyre run needs [numerical.tyre]")?;
-            let car = config.quarter_car();
-            let suspension = config
+            let specimen = config
                 .rig
-                .suspension
+                .quarter_car
                 .clone()
-                .unwrap_or_else(|| Specimen::quarter_car_suspension(&car));
+                .context("the tyre run needs the quarter car ([physical] structure)")?;
             let mut tyre_element = Element::linear(
                 f64::from(tyre.stiffness_n_per_m),
                 f64::from(tyre.damping_n_s_per_m),
@@ -313,26 +311,17 @@ fn setting(config: &Config, validated: Validated) -> Result<Setting> {
             };
             tyre_element
                 .validate()
-                .map_err(|e| anyhow!("physical.quarter_car: {e}"))?;
+                .map_err(|e| anyhow!("physical.tyre_effects: {e}"))?;
             Setting::QuarterCars {
                 board,
-                car,
-                suspension,
+                specimen,
                 tyre: tyre_element,
             }
         }
-        Validated::Aero(board, _) => {
-            let car = config.half_car();
-            let (front, rear) = Specimen::half_car_suspensions(&car);
-            Setting::HalfCar {
-                board,
-                car,
-                suspensions: (
-                    config.rig.front_suspension.clone().unwrap_or(front),
-                    config.rig.rear_suspension.clone().unwrap_or(rear),
-                ),
-            }
-        }
+        Validated::Aero(board, speed) => Setting::HalfCar {
+            board,
+            specimen: config.half_car_specimen(speed.at(0.0))?,
+        },
         Validated::Substructure(board) => {
             let (specimen, specimen_inputs) = config.physical_specimen(board.channels())?;
             Setting::Structure {
@@ -453,8 +442,9 @@ fn response(
     // Aero: body heave from the axle positions, z_b = (l_r y_f + l_f y_r) / (l_f + l_r),
     // per road heave (the same road under both posts).
     let heave = |y: &[Vec<f64>]| -> Vec<f64> {
-        let car = config.half_car();
-        let (lf, lr) = (car.front_axle_m, car.rear_axle_m);
+        let (lf, lr) = config.aero.as_ref().map_or((1.0, 1.0), |a| {
+            (f64::from(a.front_axle_m), f64::from(a.rear_axle_m))
+        });
         match (y.first(), y.get(1)) {
             (Some(f), Some(r)) => f
                 .iter()

@@ -159,6 +159,11 @@ fn json_summary_has_the_documented_fields() {
 fn bad_setups_name_the_problem() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(setup("tyre.toml")).unwrap();
+    std::fs::copy(
+        setup("tyre-physical.toml"),
+        dir.path().join("tyre-physical.toml"),
+    )
+    .unwrap();
     let cases = [
         (
             text.replace("output = \"interface_force\"", "output = \"physical:x_q\""),

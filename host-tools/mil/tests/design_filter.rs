@@ -72,6 +72,11 @@ fn design_filter_writes_a_filter_that_analyze_uses() {
     assert_ne!(text, with_filter);
     let setup = dir.path().join("tyre-with-filter.toml");
     std::fs::write(&setup, with_filter).unwrap();
+    std::fs::copy(
+        example("tyre-physical.toml"),
+        dir.path().join("tyre-physical.toml"),
+    )
+    .unwrap();
     let analysed = run_json(&[
         "analyze",
         setup.to_str().unwrap(),

@@ -303,8 +303,8 @@ fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
     let examples = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples");
     let example = std::fs::read_to_string(examples.join("tyre.toml")).unwrap();
     let (head, rest) = example.split_once("[numerical.tyre]").unwrap();
-    let (_, tail) = rest.split_once("[physical.quarter_car]").unwrap();
-    let set_up = format!("{head}{tyre}\n[physical.quarter_car]{tail}");
+    let (_, tail) = rest.split_once("[physical]").unwrap();
+    let set_up = format!("{head}{tyre}\n[physical]{tail}");
     let c = mil::setup::SetUp::from_toml(&set_up, &examples)
         .unwrap()
         .run()

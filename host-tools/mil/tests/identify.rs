@@ -83,6 +83,11 @@ fn identified_table_matches_the_reference_actuator_and_feeds_the_analysis() {
     }
     let setup = dir.path().join("tyre-measured.toml");
     std::fs::write(&setup, setup_text).unwrap();
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/tyre-physical.toml"),
+        dir.path().join("tyre-physical.toml"),
+    )
+    .unwrap();
     let measured = run_analyze(&SetUp::read(&setup).unwrap(), &dir.path().join("out"))
         .unwrap()
         .report;

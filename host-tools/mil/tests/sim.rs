@@ -169,6 +169,11 @@ fn cli_writes_histories_plots_and_json() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("short.toml");
     std::fs::write(&cfg, text("tyre.toml", 4.0, &[])).unwrap();
+    std::fs::copy(
+        examples().join("tyre-physical.toml"),
+        dir.path().join("tyre-physical.toml"),
+    )
+    .unwrap();
     let filter = examples().join("tyre-filter.json");
     let out = dir.path().join("out");
     let sim = |json: bool| {
@@ -245,7 +250,7 @@ fn bad_rig_configurations_are_refused() {
             Err(e) => format!("{e:#}"),
         }
     };
-    let load = "# static_load_n: the quarter car's weight";
+    let load = "# static_load_n: the hub actuator's static_n";
     let e = error(&[(load, &format!("static_load_n = 1500.0\n{load}"))]);
     assert!(e.contains("weighs 1667.7 N"), "{e}");
     let e = error(&[(

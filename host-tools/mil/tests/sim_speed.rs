@@ -40,10 +40,20 @@ fn aero_text(duration_s: f64, speed: &str, replace: &[(&str, &str)]) -> String {
     text
 }
 
+/// The aero set-up's physical structure copied into the folder `base` (unless it is the
+/// examples').
+fn with_physical(base: &Path) -> &Path {
+    let target = base.join("aero-physical.toml");
+    if !target.exists() {
+        std::fs::copy(examples().join("aero-physical.toml"), target).unwrap();
+    }
+    base
+}
+
 /// [`aero_text`] as `mil sim` runs it (the set-up's analysis attached); relative paths
-/// resolve against `base`.
+/// resolve against the scratch folder `base`.
 fn aero_config(duration_s: f64, speed: &str, replace: &[(&str, &str)], base: &Path) -> Config {
-    SetUp::from_toml(&aero_text(duration_s, speed, replace), base)
+    SetUp::from_toml(&aero_text(duration_s, speed, replace), with_physical(base))
         .unwrap()
         .sim()
         .unwrap()
@@ -206,7 +216,10 @@ fn mil_run_follows_the_speed() {
         "[excitation.speed]\nkind = \"ramp\"\nfrom_m_per_s = 30.0\nto_m_per_s = 60.0\nat_s = 0.5\nduration_s = 1.0\n",
         &[("rms_m = 0.001", "rms_m = 0.0")],
     );
-    let config = SetUp::from_toml(&text, dir.path()).unwrap().run().unwrap();
+    let config = SetUp::from_toml(&text, with_physical(dir.path()))
+        .unwrap()
+        .run()
+        .unwrap();
     let out = mil::run(&config, |_| {}).unwrap();
     let speed = out.speed.as_ref().unwrap();
     assert_eq!((speed[0], speed[2000], speed[3999]), (30.0, 45.0, 60.0));

@@ -181,7 +181,7 @@ fn bad_substructure_configurations_are_refused() {
     let cases: &[(&[(&str, &str)], &str)] = &[
         (
             &[(file, &unbalanced)],
-            "preload_n carry 40.0 N at dof \"x_p\", but its weight is 49.1 N",
+            "preload_n carry 40.0 N at dof \"x_p\", but the static load there is 49.1 N",
         ),
         (&[(file, &weightless)], "not at rest"),
         (
@@ -201,7 +201,7 @@ fn bad_substructure_configurations_are_refused() {
         // The analysis finds it first; the rig's own check is below.
         (
             &[("physical = \"x_p\"", "physical = \"x_q\"")],
-            "no DOF \"x_q\"",
+            "no DOF or point \"x_q\"",
         ),
         (
             &[(
@@ -218,7 +218,7 @@ fn bad_substructure_configurations_are_refused() {
         // The analysis finds it first; the board's own check is below.
         (
             &[("numerical = \"x_n\"", "numerical = \"x_m\"")],
-            "no DOF \"x_m\"",
+            "no DOF or point \"x_m\"",
         ),
         (&[(numerical_file, &negative)], "mass must be > 0, got -10"),
         (
@@ -285,13 +285,10 @@ fn bad_substructure_configurations_are_refused() {
     let start = t.find("[physical]").unwrap();
     let end = t.find("[[interface.channels]]").unwrap();
     for (part, expected) in [
-        (
-            "",
-            "[physical]: give one of quarter_car, half_car or structure",
-        ),
+        ("", "[physical]: give the structure on the rig"),
         (
             "[physical]\n\n",
-            "[physical]: give one of quarter_car, half_car or structure",
+            "[physical]: give the structure on the rig",
         ),
     ] {
         let mut edited = t.clone();

@@ -10,8 +10,7 @@ use crate::rigs::{
     aero_input_varying_speed, aero_static_demand, half_car_part_varying_speed, quarter_car_part,
     substructure_input, substructure_part, IdealAero,
 };
-use crate::specimen::{Specimen, SpecimenError};
-use mil_params::{AeroExample, TyreExample};
+use crate::specimen::{Specimen, SpecimenError, STATIC_DEMAND_TOLERANCE};
 use mil_structure::Element;
 use model_core::{AeroModel, Controller, PreparedParams, SubstructureModel, TyreModel};
 
@@ -54,10 +53,9 @@ pub enum Setting {
     QuarterCars {
         /// The board's tyre model.
         board: Box<PreparedParams<TyreModel<TYRE_CHANNELS>, TYRE_CHANNELS>>,
-        /// The quarter car's masses.
-        car: TyreExample,
-        /// The suspension between body and hub.
-        suspension: Element,
+        /// One wheel's quarter car, its one attachment the hub (at rest when the hub
+        /// actuator holds the board's static tyre load), on every wheel.
+        specimen: Specimen,
         /// The emulated system's tyre (the law the board's tyre stands for).
         tyre: Element,
     },
@@ -68,10 +66,10 @@ pub enum Setting {
     HalfCar {
         /// The board's aero model.
         board: Box<PreparedParams<AeroModel, 2>>,
-        /// The half car's masses and geometry.
-        car: AeroExample,
-        /// Front and rear suspensions.
-        suspensions: (Element, Element),
+        /// The half car: two attachments (front and rear axle) and two road inputs (front
+        /// and rear post), at rest under the board's static down force at the first
+        /// sample's speed ([`aero_static_demand`]).
+        specimen: Specimen,
     },
     /// Any mass-spring-damper specimen on force-controlled actuators (one per attachment)
     /// with model-core's substructure model on the board (the paper's configuration 4).
@@ -186,24 +184,16 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
     match setting {
         Setting::QuarterCars {
             board,
-            car,
-            suspension,
+            specimen,
             tyre,
         } => {
-            let mut parts = (0..TYRE_CHANNELS)
-                .map(|c| {
-                    quarter_car_part(
-                        car,
-                        suspension.clone(),
-                        *actuator,
-                        tyre.clone(),
-                        c,
-                        c,
-                        *step,
-                    )
-                })
-                .collect::<Result<Vec<RigPart>, _>>()?;
             let initial = board.params().model.tyre.map(|t| f64::from(t.static_load));
+            for load in initial {
+                specimen.check_near_rest(&[load], STATIC_DEMAND_TOLERANCE)?;
+            }
+            let mut parts = (0..TYRE_CHANNELS)
+                .map(|c| quarter_car_part(specimen.clone(), *actuator, tyre.clone(), c, c, *step))
+                .collect::<Result<Vec<RigPart>, _>>()?;
             on_board(
                 board,
                 &mut parts,
@@ -215,11 +205,7 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
                 progress,
             )
         }
-        Setting::HalfCar {
-            board,
-            car,
-            suspensions,
-        } => {
+        Setting::HalfCar { board, specimen } => {
             let params = board.params().model;
             let start = inputs
                 .get(2)
@@ -227,8 +213,7 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
                 .copied()
                 .unwrap_or_else(|| f64::from(params.reference_speed));
             let mut parts = vec![half_car_part_varying_speed(
-                car,
-                suspensions.clone(),
+                specimen.clone(),
                 *actuator,
                 IdealAero::new(params, start),
                 0,

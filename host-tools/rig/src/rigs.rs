@@ -105,24 +105,31 @@ impl IdealInterface for IdealTyre {
     }
 }
 
-/// One wheel of the tyre example: the quarter car (`car`, with `suspension` as its
-/// suspension element) on a hub actuator, and the emulated quarter car standing on the ideal
-/// `tyre` (whose preload is the static wheel load). The run's road input `road_input` drives
-/// the emulated tyre (the MiL rig's road goes to the numerical model only); the plant serves
-/// controller channel `channel`.
+/// One wheel of the tyre example: the quarter car `specimen` (e.g.
+/// [`Specimen::quarter_car`], or a structure file's, with one attachment: the hub) on a hub
+/// actuator, and the emulated quarter car standing on the ideal `tyre` (whose preload is the
+/// static wheel load) at the hub. The run's road input `road_input` drives the emulated tyre
+/// (the MiL rig's road goes to the numerical model only); the plant serves controller
+/// channel `channel`.
 ///
 /// # Errors
-/// An invalid specimen or step.
+/// An invalid specimen or step, a specimen with road inputs or not one attachment.
 pub fn quarter_car_part(
-    car: &TyreExample,
-    suspension: Element,
+    specimen: Specimen,
     actuator: ForceActuator,
     tyre: Element,
     channel: usize,
     road_input: usize,
     internal_step_s: f64,
 ) -> Result<RigPart, SpecimenError> {
-    let specimen = Specimen::quarter_car(car, suspension);
+    if specimen.attachments.len() != 1 || !specimen.inputs.is_empty() {
+        return Err(SpecimenError(format!(
+            "the tyre rig's quarter car hangs on one hub actuator and stands on nothing else: \
+             {} attachments and road inputs {:?} given",
+            specimen.attachments.len(),
+            specimen.inputs
+        )));
+    }
     let mut emulated_specimen = specimen.clone();
     emulated_specimen.inputs = vec!["road".into()];
     for e in &mut emulated_specimen.elements {
@@ -203,8 +210,7 @@ pub fn paper_tyre_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
     )
     .map_err(|e| SpecimenError(e.to_string()))?;
     quarter_car_part(
-        &car,
-        Specimen::quarter_car_suspension(&car),
+        Specimen::quarter_car(&car, Specimen::quarter_car_suspension(&car)),
         actuator,
         ideal_tyre(&TyreParams::PAPER),
         0,
@@ -368,27 +374,24 @@ impl IdealInterface for IdealAero {
     }
 }
 
-/// The aero example's half car on a four-poster: the half car of `car` (its
-/// [`Specimen::half_car`], with `suspensions` = (front, rear) as its suspension elements) with
-/// one `actuator` at each axle point (controller channels `first_channel` (front) and
+/// The aero example's half car on a four-poster: the half car `specimen` (e.g.
+/// [`Specimen::half_car_holding`], or a structure file's) with one `actuator` at each of its
+/// two attachments, the axle points (controller channels `first_channel` (front) and
 /// `first_channel + 1` (rear)), and the emulated half car driven at the axle points by the
 /// ideal `aero` model. The run's road inputs `road_inputs` = [front post, rear post] (m)
-/// drive the suspensions of both (the four-poster's posts are physical).
+/// drive the specimen's two road inputs in both (the four-poster's posts are physical).
 ///
-/// Static equilibrium at `q = 0`: the suspensions' preloads are the body's static axle
-/// loads plus the static aero down force `−aero.static_forces()` (N) per axle, so the
-/// specimen is at rest at `q = 0` when the actuators hold the model's static demand (the
-/// board's `AeroParams::forces(0, 0, v)`, which differs from the `f64` value by `f32`
-/// rounding, about 1e-4 N).
+/// The specimen must be at rest at `q = 0` when the actuators hold the model's static
+/// down force `aero.static_forces()` (N per axle; the board's `AeroParams::forces(0, 0, v)`
+/// differs by `f32` rounding, about 1e-4 N): its preloads carry the weight and the down
+/// force.
 ///
 /// # Errors
-/// An invalid specimen or step, axle distances of `aero.params` that differ from the
-/// car's by more than 1 µm (the model would put its forces elsewhere than the actuators
-/// are), or an `aero` whose speed follows a road input (use
-/// [`half_car_part_varying_speed`]).
+/// An invalid specimen or step, a specimen without two attachments and two road inputs or
+/// not at rest under the static down force, or an `aero` whose speed follows a road input
+/// (use [`half_car_part_varying_speed`]).
 pub fn half_car_part(
-    car: &AeroExample,
-    suspensions: (Element, Element),
+    specimen: Specimen,
     actuator: ForceActuator,
     aero: IdealAero,
     first_channel: usize,
@@ -403,8 +406,7 @@ pub fn half_car_part(
         ));
     }
     build_half_car(
-        car,
-        suspensions,
+        specimen,
         actuator,
         aero,
         first_channel,
@@ -419,15 +421,13 @@ pub fn half_car_part(
 /// it as its plant's third road input (after the two posts; the suspensions do not use it),
 /// ramped linearly between samples like every road input; the board reads the same column
 /// ([`aero_input_varying_speed`]). `aero.speed_m_per_s` is the speed at the start: the
-/// suspensions' preloads carry the down force at that speed, so the rig starts at rest when
+/// specimen is at rest under the down force at that speed, so the rig starts at rest when
 /// the actuators hold [`aero_static_demand`] at it.
 ///
 /// # Errors
 /// As [`half_car_part`].
-#[allow(clippy::too_many_arguments)]
 pub fn half_car_part_varying_speed(
-    car: &AeroExample,
-    suspensions: (Element, Element),
+    specimen: Specimen,
     actuator: ForceActuator,
     aero: IdealAero,
     first_channel: usize,
@@ -436,8 +436,7 @@ pub fn half_car_part_varying_speed(
     internal_step_s: f64,
 ) -> Result<RigPart, SpecimenError> {
     build_half_car(
-        car,
-        suspensions,
+        specimen,
         actuator,
         aero.with_speed_input(2),
         first_channel,
@@ -449,10 +448,8 @@ pub fn half_car_part_varying_speed(
 
 /// The half car's rig part; with `speed_input`, the emulated specimen takes the speed as
 /// its third road input (`aero` reads its input 2).
-#[allow(clippy::too_many_arguments)]
 fn build_half_car(
-    car: &AeroExample,
-    suspensions: (Element, Element),
+    specimen: Specimen,
     actuator: ForceActuator,
     aero: IdealAero,
     first_channel: usize,
@@ -460,22 +457,25 @@ fn build_half_car(
     speed_input: Option<usize>,
     internal_step_s: f64,
 ) -> Result<RigPart, SpecimenError> {
-    let p = &aero.params;
-    for (name, model, specimen) in [
-        ("front", p.front_axle, car.front_axle_m),
-        ("rear", p.rear_axle, car.rear_axle_m),
-    ] {
-        if (f64::from(model) - specimen).abs() > 1e-6 {
-            return Err(SpecimenError(format!(
-                "aero model's {name} axle at {model} m, the car's at {specimen} m"
-            )));
-        }
+    if specimen.attachments.len() != 2 || specimen.inputs.len() != 2 {
+        return Err(SpecimenError(format!(
+            "the four-poster's half car has two actuators (front and rear axle) and two posts: \
+             {} attachments and road inputs {:?} given",
+            specimen.attachments.len(),
+            specimen.inputs
+        )));
     }
-    let mut specimen = Specimen::half_car(car, suspensions.0, suspensions.1);
-    // half_car's elements: front suspension, then rear.
-    for (e, f) in specimen.elements.iter_mut().zip(aero.static_forces()) {
-        e.element.preload_n -= f;
-    }
+    specimen
+        .check_near_rest(
+            &aero.static_forces(),
+            crate::specimen::STATIC_DEMAND_TOLERANCE,
+        )
+        .map_err(|e| {
+            SpecimenError(format!(
+                "under the aero model's static down force at {} m/s: {}",
+                aero.speed_m_per_s, e.0
+            ))
+        })?;
     let mut emulated = specimen.clone();
     let mut emulated_inputs = road_inputs.to_vec();
     if let Some(speed) = speed_input {
@@ -570,11 +570,12 @@ pub fn paper_aero_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
     )
     .map_err(|e| SpecimenError(e.to_string()))?;
     let params = AeroParams::PAPER;
+    let aero = IdealAero::new(params, f64::from(params.reference_speed));
+    let (front, rear) = Specimen::half_car_suspensions(&car);
     half_car_part(
-        &car,
-        Specimen::half_car_suspensions(&car),
+        Specimen::half_car_holding(&car, front, rear, aero.static_forces()),
         actuator,
-        IdealAero::new(params, f64::from(params.reference_speed)),
+        aero,
         0,
         [0, 1],
         internal_step_s,
@@ -1054,9 +1055,10 @@ mod tests {
         };
         let road: Vec<f64> = (0..2000).map(|k| 1e-3 * (0.02 * k as f64).sin()).collect();
         let aero = IdealAero::new(params, speed);
+        let (front, rear) = Specimen::half_car_suspensions(&car);
+        let specimen = Specimen::half_car_holding(&car, front, rear, aero.static_forces());
         let constant = half_car_part(
-            &car,
-            Specimen::half_car_suspensions(&car),
+            specimen.clone(),
             reference_actuator(),
             aero,
             0,
@@ -1065,8 +1067,7 @@ mod tests {
         )
         .unwrap();
         let varying = half_car_part_varying_speed(
-            &car,
-            Specimen::half_car_suspensions(&car),
+            specimen.clone(),
             reference_actuator(),
             aero,
             0,
@@ -1125,8 +1126,7 @@ mod tests {
             }
         }
         let e = half_car_part(
-            &car,
-            Specimen::half_car_suspensions(&car),
+            specimen,
             reference_actuator(),
             aero.with_speed_input(2),
             0,

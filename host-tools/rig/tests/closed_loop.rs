@@ -77,8 +77,7 @@ fn simulate(road: &[f64], config: &Config) -> (Histories, LinkStatistics) {
     let mut suspension = Specimen::quarter_car_suspension(&car);
     suspension.effects = config.suspension.clone();
     let mut parts = vec![quarter_car_part(
-        &car,
-        suspension,
+        Specimen::quarter_car(&car, suspension),
         actuator,
         ideal_tyre(&config.tyre),
         0,

@@ -299,8 +299,7 @@ fn nonlinear_plants_take_rk4_steps() {
     )
     .unwrap();
     let progressive = mil_rig::rigs::quarter_car_part(
-        &car,
-        Specimen::quarter_car_suspension(&car),
+        Specimen::quarter_car(&car, Specimen::quarter_car_suspension(&car)),
         reference,
         tyre,
         0,

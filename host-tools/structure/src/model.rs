@@ -240,7 +240,7 @@ fn preloads(file: &ModelFile, elements: &mut [Element], loads: &[f64]) -> Result
     let g = file.gravity_m_per_s2.unwrap_or(0.0);
     let held = file.inputs.iter().any(|i| i.static_n != 0.0);
     let load_names = if held {
-        "its weight and the force inputs' static_n"
+        "its weight with the force inputs' static_n"
     } else {
         "its weight"
     };
@@ -252,9 +252,10 @@ fn preloads(file: &ModelFile, elements: &mut [Element], loads: &[f64]) -> Result
         if let Some((i, carried)) = unbalanced(loads, &stated) {
             let in_kg = g > 0.0 && (carried * g - loads[i]).abs() < 0.01 * total;
             return Err(Error::Model(format!(
-                "the elements' preload_n carry {:.1} N at dof {:?}, but {load_names} come to \
-                 {:.1} N there (gravity_m_per_s2 = {g}){}: state every preload_n in N so that \
-                 they balance the static loads, or leave them all out and they follow from them",
+                "the elements' preload_n carry {:.1} N at dof {:?}, but the static load there \
+                 is {:.1} N ({load_names}, gravity_m_per_s2 = {g}){}: state every preload_n in \
+                 N so that they balance the static loads, or leave them all out and they \
+                 follow from them",
                 -carried,
                 file.dofs[i].name,
                 -loads[i],
@@ -293,8 +294,8 @@ fn preloads(file: &ModelFile, elements: &mut [Element], loads: &[f64]) -> Result
     let derived: Vec<(&[f64], f64)> = elements.iter().map(|e| (&e.a[..], e.preload_n)).collect();
     if let Some((i, carried)) = unbalanced(loads, &derived) {
         return Err(Error::Model(format!(
-            "the springs carry {:.1} N at dof {:?}, but {load_names} come to {:.1} N there \
-             (the stiffness matrix is singular): add the springs that carry the weight, give \
+            "the springs carry {:.1} N at dof {:?}, but the static load there is {:.1} N \
+             ({load_names}; the stiffness matrix is singular): add the springs that carry the weight, give \
              the force input that holds it its static_n, or state each element's preload_n",
             -carried, file.dofs[i].name, -loads[i],
         )));
