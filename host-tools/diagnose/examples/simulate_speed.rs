@@ -1,5 +1,5 @@
 //! Speed of the workflow's simulation (the inner loop of the output-error refinement):
-//! the tyre example (`examples/tyre.toml`, lift-off and asymmetric damping on) over
+//! the tyre example (`examples/quarter-car.toml`, lift-off and asymmetric damping on) over
 //! 420 000 samples of a random road at 1 kHz, outputs only, fastest of 5 runs.
 //!
 //! ```text
@@ -11,9 +11,9 @@ use mil_diagnose::{Model, Record};
 use std::time::Instant;
 
 fn main() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tyre.toml");
-    let mut model =
-        Model::from_toml(&std::fs::read_to_string(path).expect("tyre.toml")).expect("tyre.toml");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/quarter-car.toml");
+    let mut model = Model::from_toml(&std::fs::read_to_string(path).expect("quarter-car.toml"))
+        .expect("quarter-car.toml");
     model.elements[1].law.lift_off = Some(1667.0);
     model.elements[0].law.c_abs = Some(-1000.0);
     let n = std::env::args()

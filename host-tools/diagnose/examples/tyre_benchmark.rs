@@ -1,5 +1,5 @@
 //! Benchmark of issue 6: time to diagnose 10 minutes of 1 kHz data for the tyre example
-//! (`examples/tyre.toml`) with the full candidate library and default options (target:
+//! (`examples/quarter-car.toml`) with the full candidate library and default options (target:
 //! under 30 s on 2 cores).
 //!
 //! ```text
@@ -14,7 +14,7 @@
 //! tyre lifts off (it can only push) and the suspension damper is asymmetric (1.5 kN·s/m in
 //! bump, 3.5 kN·s/m in rebound). The road is track-like: a pink random profile (0.5–20 Hz,
 //! 3 mm RMS) with a 30 mm half-sine kerb of 80 ms every 1.7 s. The record holds the columns
-//! of `tyre.toml`: `road`, `body`, `hub` (m, deviations from the static equilibrium) and
+//! of `quarter-car.toml`: `road`, `body`, `hub` (m, deviations from the static equilibrium) and
 //! `tyre_force` (N, positive in compression, deviation from the static wheel load, as a
 //! load cell zeroed at rest reads it), each with white measurement noise of 0.5 % (road)
 //! or 0.7 % (outputs) of its clean RMS.
@@ -42,9 +42,9 @@ fn main() {
         .nth(1)
         .map(|a| a.parse::<f64>().expect("SECONDS: a number"))
         .unwrap_or(DURATION_S);
-    let model_path = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tyre.toml");
-    let model = Model::from_toml(&std::fs::read_to_string(model_path).expect("tyre.toml"))
-        .expect("tyre.toml");
+    let model_path = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/quarter-car.toml");
+    let model = Model::from_toml(&std::fs::read_to_string(model_path).expect("quarter-car.toml"))
+        .expect("quarter-car.toml");
 
     let t = Instant::now();
     let record = quarter_car_record(&track_road(duration_s, 6), 6);

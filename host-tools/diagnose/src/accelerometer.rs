@@ -365,8 +365,8 @@ mod tests {
     /// position, body acceleration, hub position and tyre force.
     #[allow(clippy::type_complexity)]
     fn quarter_car(len: usize) -> (String, Vec<f64>, [Vec<f64>; 5]) {
-        let text = include_str!("../examples/tyre.toml").to_string();
-        let model = Model::from_toml(&text).expect("tyre.toml");
+        let text = include_str!("../examples/quarter-car.toml").to_string();
+        let model = Model::from_toml(&text).expect("quarter-car.toml");
         let dt = 1e-3;
         let mut rng = mil_numerics::rng::SplitMix64::new(7u64);
         let mut rnd = move || rng.uniform() - 0.5;

@@ -1172,8 +1172,8 @@ mod tests {
 
     #[test]
     fn the_dofs_the_displacement_outputs_leave_undetermined_are_named() {
-        let text = include_str!("../examples/tyre.toml");
-        let model = Model::from_toml(text).expect("tyre.toml");
+        let text = include_str!("../examples/quarter-car.toml");
+        let model = Model::from_toml(text).expect("quarter-car.toml");
         assert!(undetermined_dofs(&model).is_empty());
         assert!(displacement_map(&model).is_some());
         // The hub's velocity measured only: its position is not determined (an

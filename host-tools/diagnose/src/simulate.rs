@@ -1198,8 +1198,8 @@ mod tests {
     #[test]
     fn integrator_matches_the_reference_bit_for_bit() {
         let mut models: Vec<(String, Model)> = [
-            "tyre.toml",
-            "aero.toml",
+            "quarter-car.toml",
+            "half-car.toml",
             "boucwen.toml",
             "oscillator.toml",
             "silverbox.toml",
@@ -1257,7 +1257,7 @@ mod tests {
 
     #[test]
     fn divergence_is_reported_at_the_same_sample() {
-        let mut model = example("tyre.toml");
+        let mut model = example("quarter-car.toml");
         model.elements[0].law.k = -5e5;
         model.elements[1].law.lift_off = Some(1667.0);
         let record = record_for(&model, 3000, 7);

@@ -1,4 +1,4 @@
-//! The aero example's model file (`examples/aero.toml`: the paper's half car on a
+//! The aero example's model file (`examples/half-car.toml`: the paper's half car on a
 //! four-poster, heave and pitch, front and rear suspensions from the posts to the axle
 //! points, down-force actuators at the axle points) against 60 s of the simulated rig's
 //! half car: the rig's mass, inertia, stiffnesses and dampings 8–12 % off the file's, and a
@@ -146,7 +146,7 @@ fn half_car_record(seed: u64) -> Record {
 
 #[test]
 fn aero_example_names_the_front_bump_stop() {
-    let model = Model::from_toml(include_str!("../examples/aero.toml")).expect("aero.toml");
+    let model = Model::from_toml(include_str!("../examples/half-car.toml")).expect("half-car.toml");
     let record = half_car_record(31);
     let d = diagnose(&model, &record, &Options::default()).expect("diagnose");
     println!("{}", d.summary());

@@ -17,8 +17,8 @@ fn example(name: &str) -> Model {
 fn every_example_reads_and_round_trips() {
     for name in [
         "oscillator.toml",
-        "tyre.toml",
-        "aero.toml",
+        "quarter-car.toml",
+        "half-car.toml",
         "emps.toml",
         "silverbox.toml",
         "boucwen.toml",
@@ -31,7 +31,7 @@ fn every_example_reads_and_round_trips() {
 
 #[test]
 fn paper_examples_have_the_paper_structure() {
-    let tyre = example("tyre.toml");
+    let tyre = example("quarter-car.toml");
     assert_eq!(tyre.dofs, ["x_s", "x_u"]);
     // Suspension compression = x_u - x_s; tyre compression = road - x_u.
     assert_eq!(tyre.elements[0].a, [-1.0, 1.0]);
@@ -39,7 +39,7 @@ fn paper_examples_have_the_paper_structure() {
     assert_eq!(tyre.elements[1].b, [1.0]);
     assert!(tyre.is_restrained());
     assert!(matches!(tyre.outputs[2].target, Target::Element(1)));
-    let aero = example("aero.toml");
+    let aero = example("half-car.toml");
     // Front axle point z - l_f θ: compression road_front - (z - 1.8 θ).
     assert_eq!(aero.elements[0].a, [-1.0, 1.8]);
     assert_eq!(aero.elements[1].a, [-1.0, -1.4]);
@@ -75,7 +75,7 @@ fn effects_in_the_file_are_simulated() {
     // The tyre with lift-off: a road bump that throws the wheel off the road gives a tyre
     // force that never drops below minus the static load.
     let text = std::fs::read_to_string(
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/tyre.toml"),
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/quarter-car.toml"),
     )
     .unwrap();
     let preload = 170.0 * 9.81;
@@ -129,7 +129,7 @@ fn effects_in_the_file_are_simulated() {
     let min = force.iter().cloned().fold(f64::INFINITY, f64::min);
     assert!((min + preload).abs() < 1e-6, "min tyre force {min}");
     // Without lift-off the tyre pulls the wheel down far harder.
-    let linear = example("tyre.toml");
+    let linear = example("quarter-car.toml");
     let sim = simulate(
         &linear,
         &rec,
@@ -146,7 +146,7 @@ fn effects_in_the_file_are_simulated() {
 fn effects_attach_only_where_they_mean_something() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples");
     let osc = std::fs::read_to_string(dir.join("oscillator.toml")).unwrap();
-    let tyre = std::fs::read_to_string(dir.join("tyre.toml")).unwrap();
+    let tyre = std::fs::read_to_string(dir.join("quarter-car.toml")).unwrap();
     let with = |base: &str, effect: &str, on: &str, params: &str| {
         Model::from_toml(&format!(
             "{base}\n[[effect]]\neffect = \"{effect}\"\nelement = \"{on}\"\nparameters = {{ {params} }}\n"

@@ -53,7 +53,8 @@ fn a_damping_the_data_would_make_negative_is_held_at_zero() {
 fn masses_come_from_the_measured_tyre_force() {
     let road = quarter_car::track_road(30.0, 7);
     let rec = quarter_car::quarter_car_record(&road, 7);
-    let mut model = Model::from_toml(include_str!("../examples/tyre.toml")).expect("tyre.toml");
+    let mut model =
+        Model::from_toml(include_str!("../examples/quarter-car.toml")).expect("quarter-car.toml");
     model.mass[0] *= 1.15;
     model.mass[1] *= 0.85;
     let options = Options {

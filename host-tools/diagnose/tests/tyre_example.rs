@@ -1,4 +1,4 @@
-//! The tyre example's model file (`examples/tyre.toml`) against 60 s of the simulated rig's
+//! The tyre example's model file (`examples/quarter-car.toml`) against 60 s of the simulated rig's
 //! quarter car on a track-like road (see `tests/common/quarter_car.rs`): the rig's linear
 //! parameters 8–12 % off the file's, the tyre lifting off and the suspension damper
 //! asymmetric. The workflow must recalibrate the linear parameters, name exactly those two
@@ -13,8 +13,8 @@ use quarter_car::*;
 
 #[test]
 fn tyre_example_names_lift_off_and_asymmetric_damping() {
-    let text = include_str!("../examples/tyre.toml");
-    let model = Model::from_toml(text).expect("tyre.toml");
+    let text = include_str!("../examples/quarter-car.toml");
+    let model = Model::from_toml(text).expect("quarter-car.toml");
     let record = quarter_car_record(&track_road(60.0, 21), 21);
     let d = diagnose(&model, &record, &Options::default()).expect("diagnose");
     println!("{}", d.summary());

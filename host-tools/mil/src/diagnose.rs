@@ -26,7 +26,7 @@ pub struct DiagnoseRequest {
     /// Output folder (created if needed).
     pub out: PathBuf,
     /// Export this element of the updated model as model-core's real-time tyre (the
-    /// `[numerical.tyre]` table of a MiL set-up, `tyre.toml` in the output folder).
+    /// `[numerical.tyre]` table of a MiL set-up, `numerical-tyre.toml` in the output folder).
     pub tyre: Option<TyreExport>,
 }
 
@@ -84,7 +84,7 @@ pub fn run_diagnose(
     let tyre = match &request.tyre {
         Some(t) => {
             let section = tyre_section(&diagnosis.updated, &t.element, t.static_load_n)?;
-            let path = request.out.join("tyre.toml");
+            let path = request.out.join("numerical-tyre.toml");
             std::fs::write(&path, tyre_toml(&section, &t.element, &request.model)?)
                 .with_context(|| format!("writing {}", path.display()))?;
             Some(path)
@@ -105,7 +105,7 @@ pub fn run_diagnose(
 /// lift-off if the model has it, the static load from the lift-off preload (or
 /// `static_load_n`, which takes precedence), and the velocity low-pass of model-core's
 /// paper tyre (500 Hz). The element compresses as the tyre's deflection `δ = road − hub`,
-/// as in the tyre example (`host-tools/diagnose/examples/tyre.toml`).
+/// as in the tyre example (`host-tools/diagnose/examples/quarter-car.toml`).
 ///
 /// # Errors
 /// No such element; the element has effects model-core's tyre does not model (it has
@@ -168,7 +168,7 @@ pub fn tyre_section(
     Ok(section)
 }
 
-/// The text of `tyre.toml`: a comment saying where the values come from, then the
+/// The text of `numerical-tyre.toml`: a comment saying where the values come from, then the
 /// `[numerical.tyre]` table.
 fn tyre_toml(section: &crate::config::TyreSection, element: &str, model: &Path) -> Result<String> {
     #[derive(serde::Serialize)]
@@ -563,7 +563,7 @@ mod tests {
     /// The tyre example's model with the given effects on its `tyre` element, whose
     /// static load is `preload_n` (N).
     fn tyre_model_loaded(effects: &str, preload_n: f64) -> Model {
-        let text = include_str!("../../diagnose/examples/tyre.toml").replace(
+        let text = include_str!("../../diagnose/examples/quarter-car.toml").replace(
             "damping_n_s_per_m = 500.0",
             &format!("damping_n_s_per_m = 500.0\npreload_n = {preload_n}"),
         );

@@ -171,7 +171,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Also write the updated model's element ELEMENT as model-core's real-time tyre
-        /// (tyre.toml: the [numerical.tyre] table of a MiL set-up; stiffness, damping,
+        /// (numerical-tyre.toml: the [numerical.tyre] table of a MiL set-up; stiffness, damping,
         /// static load and lift-off).
         #[arg(long, value_name = "ELEMENT")]
         tyre: Option<String>,

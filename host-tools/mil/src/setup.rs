@@ -1196,7 +1196,7 @@ mod tests {
         };
         let tyre = std::fs::read_to_string(examples().join("tyre-physical.toml")).unwrap();
         let on_road = std::fs::read_to_string(
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../diagnose/examples/tyre.toml"),
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../diagnose/examples/quarter-car.toml"),
         )
         .unwrap();
         let e = refused("tyre.toml", "tyre-physical.toml", on_road.clone());

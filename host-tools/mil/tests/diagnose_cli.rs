@@ -271,7 +271,7 @@ fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
         .write(&csv)
         .unwrap();
     let out = dir.path().join("out");
-    let model = diagnose_dir().join("examples/tyre.toml");
+    let model = diagnose_dir().join("examples/quarter-car.toml");
     let o = mil(&[
         "diagnose",
         "--model",
@@ -290,7 +290,7 @@ fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
         String::from_utf8_lossy(&o.stderr)
     );
     assert!(stdout.contains("tyre (model-core):"), "{stdout}");
-    let tyre = std::fs::read_to_string(out.join("tyre.toml")).unwrap();
+    let tyre = std::fs::read_to_string(out.join("numerical-tyre.toml")).unwrap();
     println!("{tyre}");
     let table: toml::Table = toml::from_str(&tyre).unwrap();
     let t = &table["numerical"]["tyre"];

@@ -428,7 +428,7 @@ damping_n_s_per_m = 10.0
     fn a_quarter_car_structure_stands_on_its_road() {
         let text = format!(
             "{}\n[[effect]]\neffect = \"lift_off\"\nelement = \"tyre\"\n",
-            include_str!("../../diagnose/examples/tyre.toml").replace(
+            include_str!("../../diagnose/examples/quarter-car.toml").replace(
                 "name = \"quarter car\"",
                 "name = \"quarter car\"\ngravity_m_per_s2 = 9.81"
             )

@@ -1,4 +1,4 @@
-//! The quarter car of the tyre example (`examples/tyre.toml`) on a track-like road, made by
+//! The quarter car of the tyre example (`examples/quarter-car.toml`) on a track-like road, made by
 //! the simulated rig (`mil-rig`), with two effects the model file lacks: the tyre lifts off
 //! (it can only push) and the suspension damper is asymmetric (1.5 kN·s/m in bump,
 //! 3.5 kN·s/m in rebound). The rig's linear parameters are 8–12 % away from the model
@@ -16,7 +16,7 @@ use mil_structure::{EffectKind, Element};
 
 /// Record sample rate (Hz).
 pub const FS: f64 = 1000.0;
-/// The rig's quarter car (true values; `tyre.toml` has 150 kg, 20 kg, 120 kN/m, 2.5 kN·s/m,
+/// The rig's quarter car (true values; `quarter-car.toml` has 150 kg, 20 kg, 120 kN/m, 2.5 kN·s/m,
 /// 250 kN/m, 500 N·s/m).
 pub const M_S: f64 = 150.0;
 /// Unsprung mass (kg).
@@ -81,7 +81,7 @@ pub fn noisy(clean: &[f64], fraction: f64, rng: &mut SplitMix64) -> Vec<f64> {
         .collect()
 }
 
-/// Simulates the quarter car over `road` and returns the record with `tyre.toml`'s columns.
+/// Simulates the quarter car over `road` and returns the record with `quarter-car.toml`'s columns.
 pub fn quarter_car_record(road: &[f64], seed: u64) -> Record {
     let g = GRAVITY_M_PER_S2;
     let suspension = Element::linear(K_C, 0.5 * (C_BUMP + C_REBOUND))
