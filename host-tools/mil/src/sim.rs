@@ -576,7 +576,10 @@ impl SimOutput {
     /// `road_front`, `road_rear` and the vehicle `speed` (m/s) for the aero model), then per
     /// channel
     /// `demand_<c>` (N), `mil_position_<c>` (m), `mil_force_<c>` (N),
-    /// `emulated_position_<c>` (m), `emulated_force_<c>` (N), then `mode` and `fault`.
+    /// `emulated_position_<c>` (m), `emulated_force_<c>` (N), then every specimen DOF's
+    /// displacement on the MiL rig, `mil_dof_<dof>_<c>` (m or rad, `c` its part's first
+    /// channel: a structure file's `[[output]]` can read it as a body transducer), then
+    /// `mode` and `fault`.
     ///
     /// # Errors
     /// I/O errors.
@@ -600,6 +603,7 @@ impl SimOutput {
                 .map(|s| format!("{s}_{c}")),
             );
         }
+        header.extend(h.mil_dofs.iter().map(|(name, _)| format!("mil_dof_{name}")));
         header.extend(["mode", "fault"].map(String::from));
         writeln!(w, "{}", header.join(","))?;
         for k in 0..h.len() {
@@ -617,6 +621,9 @@ impl SimOutput {
                     h.emulated_position[c][k],
                     h.emulated_force[c][k]
                 )?;
+            }
+            for (_, q) in &h.mil_dofs {
+                write!(w, ",{:.9e}", q[k])?;
             }
             writeln!(w, ",{},{}", h.status[k].mode as u8, h.status[k].fault)?;
         }

@@ -6,8 +6,10 @@
 //! record far better than the linear structure does.
 //!
 //! The same for the aero example's half car on the four-poster
-//! (`examples/aero-physical.toml`): a hidden effect on one suspension, the record's two
-//! axle positions and load cells, `updated.toml` back into the aero set-up.
+//! (`examples/aero-physical.toml`: a hidden effect on one suspension, the record's two axle
+//! positions and load cells) and for the tyre example's quarter car
+//! (`examples/tyre-physical.toml`: the body's displacement, which `mil sim` records, beside
+//! the hub's), `updated.toml` back into their set-ups.
 //!
 //! The hidden effects are sized from the linear run's own amplitudes (a rule, not tuned per
 //! case), and each case runs on a road seed used nowhere else.
@@ -43,35 +45,6 @@ fn mil(args: &[&str]) -> String {
     text
 }
 
-/// The 2-DOF set-up (`two-dof.toml`) in `dir` with the physical part `structure` (a file
-/// name in `dir`) and road seed `seed`, 12 s long; returns its path.
-fn sim_config(dir: &Path, name: &str, structure: &str, seed: u64) -> PathBuf {
-    let shipped = |f: &str| format!("{:?}", examples().join(f).display().to_string());
-    let mut text = std::fs::read_to_string(examples().join("two-dof.toml")).unwrap();
-    for (from, to) in [
-        (
-            "structure = \"two-dof-physical.toml\"",
-            format!("structure = \"{structure}\""),
-        ),
-        (
-            "structure = \"two-dof-numerical.toml\"",
-            format!("structure = {}", shipped("two-dof-numerical.toml")),
-        ),
-        ("seed = 1", format!("seed = {seed}")),
-        ("duration_s = 20.0", "duration_s = 12.0".to_string()),
-        (
-            "filter = \"two-dof-filter.json\"",
-            format!("filter = {}", shipped("two-dof-filter.json")),
-        ),
-    ] {
-        assert!(text.contains(from), "{from}");
-        text = text.replace(from, &to);
-    }
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
 /// Runs `mil sim` on `config` into `dir/out`, returns the CSV's path.
 fn sim(config: &Path, out: &Path) -> PathBuf {
     mil(&[
@@ -102,7 +75,7 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// The record with white measurement noise of `fraction` of each channel's RMS on the
-/// load cell and position columns (every channel's), written next to it.
+/// load cell, position and DOF columns (every channel's), written next to it.
 fn noisy(path: &Path, fraction: f64, seed: u64) -> PathBuf {
     let Table {
         names,
@@ -111,7 +84,10 @@ fn noisy(path: &Path, fraction: f64, seed: u64) -> PathBuf {
     } = read_csv(path);
     let mut rng = SplitMix64::new(seed);
     for (name, col) in names.iter().zip(cols.iter_mut()) {
-        if name.starts_with("mil_force_") || name.starts_with("mil_position_") {
+        if ["mil_force_", "mil_position_", "mil_dof_"]
+            .iter()
+            .any(|p| name.starts_with(p))
+        {
             let sigma = fraction * rms(col);
             for v in col.iter_mut() {
                 *v += sigma * rng.normal();
@@ -129,69 +105,26 @@ fn noisy(path: &Path, fraction: f64, seed: u64) -> PathBuf {
     out
 }
 
-/// One case: the effect `effect` with the parameters `params(x_rms, v_rms)` (from the
-/// linear run) on the physical element, road seed `seed`.
-fn closes_the_loop(effect: &str, params: impl Fn(f64, f64) -> String, seed: u64) {
-    let dir = scratch(effect);
-    let linear = std::fs::read_to_string(examples().join("two-dof-physical.toml")).unwrap();
-    std::fs::write(dir.join("linear.toml"), &linear).unwrap();
-    let config = sim_config(&dir, "linear-sim.toml", "linear.toml", seed);
-    let b = read_csv(&sim(&config, &dir.join("linear-run")));
-    let x = column(&b, "mil_position_0");
-    let v: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) * 2000.0).collect();
-    let (x_rms, v_rms) = (rms(x), rms(&v));
-    let parameters = params(x_rms, v_rms);
-    let truth = format!(
-        "{linear}\n[[effect]]\neffect = \"{effect}\"\nelement = \"k_p, c_p to the bed\"\n\
-         parameters = {{ {parameters} }}\n"
+/// The 2-DOF example's physical part with `effect` sized by `params(x_rms, v_rms)` from the
+/// linear run's RMS position and velocity of `x_p`.
+fn two_dof_closes_the_loop(effect: &str, params: impl Fn(f64, f64) -> String, seed: u64) {
+    vehicle_closes_the_loop(
+        ("two-dof.toml", "two-dof-physical.toml"),
+        ("k_p, c_p to the bed", effect),
+        |b| {
+            let x = column(b, "mil_position_0");
+            let v: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) * 2000.0).collect();
+            params(rms(x), rms(&v))
+        },
+        seed,
+        &["0"],
     );
-    std::fs::write(dir.join("truth.toml"), truth).unwrap();
-    let config = sim_config(&dir, "truth-sim.toml", "truth.toml", seed);
-    let record = sim(&config, &dir.join("truth-run"));
-    let a = read_csv(&record);
-    let data = noisy(&record, 0.005, seed ^ 0x5eed);
-    let report = mil(&[
-        "diagnose",
-        "--model",
-        dir.join("linear.toml").to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        dir.join("diagnosis").to_str().unwrap(),
-        "--json",
-    ]);
-    let json: serde_json::Value = serde_json::from_str(&report).unwrap();
-    let named: Vec<&str> = json["named_effects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| e["effect"].as_str().unwrap())
-        .collect();
-    assert_eq!(named, vec![effect], "{report}");
-    let config = sim_config(&dir, "updated-sim.toml", "diagnosis/updated.toml", seed);
-    let c = read_csv(&sim(&config, &dir.join("updated-run")));
-    let (truth_x, truth_f) = (column(&a, "mil_position_0"), column(&a, "mil_force_0"));
-    let before = rms_diff(truth_x, column(&b, "mil_position_0"));
-    let after = rms_diff(truth_x, column(&c, "mil_position_0"));
-    let before_f = rms_diff(truth_f, column(&b, "mil_force_0"));
-    let after_f = rms_diff(truth_f, column(&c, "mil_force_0"));
-    eprintln!(
-        "{effect} {{ {parameters} }}, seed {seed}: record vs MiL with the linear structure \
-         {:.3} mm / {before_f:.3} N RMS, with updated.toml {:.4} mm / {after_f:.4} N: the gap \
-         {:.0}x / {:.0}x smaller",
-        before * 1e3,
-        after * 1e3,
-        before / after,
-        before_f / after_f
-    );
-    assert!(before / after > 10.0, "{before} -> {after}");
-    assert!(before_f / after_f > 10.0, "{before_f} -> {after_f}");
 }
 
 #[test]
 fn a_hidden_cubic_spring_is_named_and_the_updated_structure_closes_the_gap() {
     // Hardening: +15 % stiffness at the linear run's RMS deflection.
-    closes_the_loop(
+    two_dof_closes_the_loop(
         "cubic_stiffness",
         |x, _| format!("stiffness_n_per_m3 = {:e}", 0.15 * 2.0e4 / (x * x)),
         11,
@@ -201,7 +134,7 @@ fn a_hidden_cubic_spring_is_named_and_the_updated_structure_closes_the_gap() {
 #[test]
 fn a_hidden_orifice_damper_is_named_and_the_updated_structure_closes_the_gap() {
     // Quadratic damping as large as the linear damping at the RMS velocity.
-    closes_the_loop(
+    two_dof_closes_the_loop(
         "quadratic_damping",
         |_, v| format!("damping_n_s2_per_m2 = {:e}", 10.0 / v),
         12,
@@ -211,60 +144,72 @@ fn a_hidden_orifice_damper_is_named_and_the_updated_structure_closes_the_gap() {
 #[test]
 fn a_hidden_bump_stop_is_named_and_the_updated_structure_closes_the_gap() {
     // A stop as stiff as the spring, engaging at 1.5 x the RMS deflection.
-    closes_the_loop(
+    two_dof_closes_the_loop(
         "bump_stop",
         |x, _| format!("gap_m = {:e}, stiffness_n_per_m = 2.0e4", 1.5 * x),
         13,
     );
 }
 
-/// The aero set-up (`aero.toml`) in `dir` with the physical part `structure` (a file name
-/// in `dir`) and road seed `seed`, 12 s long; returns its path.
-fn aero_config(dir: &Path, name: &str, structure: &str, seed: u64) -> PathBuf {
-    let mut text = std::fs::read_to_string(examples().join("aero.toml")).unwrap();
+/// A set-up of the examples (`set_up`, whose physical part is `physical`) in `dir` (the
+/// examples' files copied beside it) with the physical part `structure` (a file name in
+/// `dir`) and road seed `seed`, 12 s long; returns its path.
+fn vehicle_config(
+    dir: &Path,
+    (set_up, physical): (&str, &str),
+    name: &str,
+    structure: &str,
+    seed: u64,
+) -> PathBuf {
+    for entry in std::fs::read_dir(examples()).unwrap() {
+        let path = entry.unwrap().path();
+        let copy = dir.join(path.file_name().unwrap());
+        if !copy.exists() {
+            std::fs::copy(&path, copy).unwrap();
+        }
+    }
+    let mut text = std::fs::read_to_string(examples().join(set_up)).unwrap();
     for (from, to) in [
         (
-            "structure = \"aero-physical.toml\"",
+            format!("structure = \"{physical}\""),
             format!("structure = \"{structure}\""),
         ),
-        ("seed = 1", format!("seed = {seed}")),
-        ("duration_s = 20.0", "duration_s = 12.0".to_string()),
+        ("seed = 1".into(), format!("seed = {seed}")),
+        ("duration_s = 20.0".into(), "duration_s = 12.0".to_string()),
     ] {
-        assert!(text.contains(from), "{from}");
-        text = text.replace(from, &to);
+        assert!(text.contains(&from), "{from}");
+        text = text.replace(&from, &to);
     }
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     path
 }
 
-/// The aero example's half car with a hidden hardening front suspension (+15 % stiffness at
-/// the linear run's RMS front compression): named from the record, and `updated.toml` as
-/// the physical part closes the gap on both axles.
-#[test]
-fn the_half_car_s_hidden_cubic_spring_is_named_and_the_updated_structure_closes_the_gap() {
-    let dir = scratch("aero-cubic");
-    let linear = std::fs::read_to_string(examples().join("aero-physical.toml")).unwrap();
+/// One vehicle case: the shipped set-up `example` = (set-up, physical part) with the hidden
+/// `effect` on `element`, its parameters `params(linear run)`; named from the record (noise
+/// added) and `updated.toml` as the physical part closes the gap on every channel.
+fn vehicle_closes_the_loop(
+    example: (&str, &str),
+    (element, effect): (&str, &str),
+    params: impl Fn(&Table) -> String,
+    seed: u64,
+    channels: &[&str],
+) {
+    let dir = scratch(&format!("{}-{effect}", example.0));
+    let linear = std::fs::read_to_string(examples().join(example.1)).unwrap();
     std::fs::write(dir.join("linear.toml"), &linear).unwrap();
-    let seed = 14;
     let b = read_csv(&sim(
-        &aero_config(&dir, "linear-sim.toml", "linear.toml", seed),
+        &vehicle_config(&dir, example, "linear-sim.toml", "linear.toml", seed),
         &dir.join("linear-run"),
     ));
-    let compression: Vec<f64> = column(&b, "road_front")
-        .iter()
-        .zip(column(&b, "mil_position_0"))
-        .map(|(r, x)| r - x)
-        .collect();
-    let x_rms = rms(&compression);
-    let k3 = 0.15 * 3.0e5 / (x_rms * x_rms);
+    let parameters = params(&b);
     let truth = format!(
-        "{linear}\n[[effect]]\neffect = \"cubic_stiffness\"\nelement = \"front suspension\"\n\
-         parameters = {{ stiffness_n_per_m3 = {k3:e} }}\n"
+        "{linear}\n[[effect]]\neffect = \"{effect}\"\nelement = \"{element}\"\n\
+         parameters = {{ {parameters} }}\n"
     );
     std::fs::write(dir.join("truth.toml"), truth).unwrap();
     let record = sim(
-        &aero_config(&dir, "truth-sim.toml", "truth.toml", seed),
+        &vehicle_config(&dir, example, "truth-sim.toml", "truth.toml", seed),
         &dir.join("truth-run"),
     );
     let a = read_csv(&record);
@@ -291,16 +236,18 @@ fn the_half_car_s_hidden_cubic_spring_is_named_and_the_updated_structure_closes_
             )
         })
         .collect();
-    assert_eq!(
-        named,
-        vec![("cubic_stiffness", "front suspension")],
-        "{report}"
-    );
+    assert_eq!(named, vec![(effect, element)], "{report}");
     let c = read_csv(&sim(
-        &aero_config(&dir, "updated-sim.toml", "diagnosis/updated.toml", seed),
+        &vehicle_config(
+            &dir,
+            example,
+            "updated-sim.toml",
+            "diagnosis/updated.toml",
+            seed,
+        ),
         &dir.join("updated-run"),
     ));
-    for channel in ["0", "1"] {
+    for channel in channels {
         let (x, f) = (
             format!("mil_position_{channel}"),
             format!("mil_force_{channel}"),
@@ -310,9 +257,10 @@ fn the_half_car_s_hidden_cubic_spring_is_named_and_the_updated_structure_closes_
         let before_f = rms_diff(column(&a, &f), column(&b, &f));
         let after_f = rms_diff(column(&a, &f), column(&c, &f));
         eprintln!(
-            "aero cubic_stiffness {k3:.3e} N/m^3, seed {seed}, axle {channel}: record vs MiL \
-             with the linear structure {:.3} mm / {before_f:.3} N RMS, with updated.toml \
-             {:.4} mm / {after_f:.4} N: the gap {:.0}x / {:.0}x smaller",
+            "{} {effect} {{ {parameters} }} on {element:?}, seed {seed}, channel {channel}: \
+             record vs MiL with the linear structure {:.3} mm / {before_f:.3} N RMS, with \
+             updated.toml {:.4} mm / {after_f:.4} N: the gap {:.0}x / {:.0}x smaller",
+            example.0,
             before * 1e3,
             after * 1e3,
             before / after,
@@ -321,4 +269,47 @@ fn the_half_car_s_hidden_cubic_spring_is_named_and_the_updated_structure_closes_
         assert!(before / after > 10.0, "{x}: {before} -> {after}");
         assert!(before_f / after_f > 10.0, "{f}: {before_f} -> {after_f}");
     }
+}
+
+/// The aero example's half car with a hidden hardening front suspension (+15 % stiffness at
+/// the linear run's RMS front compression).
+#[test]
+fn the_half_car_s_hidden_cubic_spring_is_named_and_the_updated_structure_closes_the_gap() {
+    vehicle_closes_the_loop(
+        ("aero.toml", "aero-physical.toml"),
+        ("front suspension", "cubic_stiffness"),
+        |b| {
+            let compression: Vec<f64> = column(b, "road_front")
+                .iter()
+                .zip(column(b, "mil_position_0"))
+                .map(|(r, x)| r - x)
+                .collect();
+            let x = rms(&compression);
+            format!("stiffness_n_per_m3 = {:e}", 0.15 * 3.0e5 / (x * x))
+        },
+        14,
+        &["0", "1"],
+    );
+}
+
+/// The tyre example's quarter car (the body's displacement recorded beside the hub's) with
+/// a hidden orifice damper in the suspension, as large as its linear damping at the linear
+/// run's RMS suspension velocity.
+#[test]
+fn the_quarter_car_s_hidden_orifice_damper_is_named_and_the_updated_structure_closes_the_gap() {
+    vehicle_closes_the_loop(
+        ("tyre.toml", "tyre-physical.toml"),
+        ("suspension", "quadratic_damping"),
+        |b| {
+            let stroke: Vec<f64> = column(b, "mil_dof_x_u_0")
+                .iter()
+                .zip(column(b, "mil_dof_x_s_0"))
+                .map(|(u, s)| u - s)
+                .collect();
+            let v: Vec<f64> = stroke.windows(2).map(|w| (w[1] - w[0]) * 2000.0).collect();
+            format!("damping_n_s2_per_m2 = {:e}", 2500.0 / rms(&v))
+        },
+        15,
+        &["0"],
+    );
 }

@@ -212,7 +212,18 @@ fn cli_writes_histories_plots_and_json() {
     let (header, rows) = csv_header_and_rows(&out.join("sim.csv"));
     assert_eq!(rows, 8000);
     assert_eq!(header[0], "time");
-    assert_eq!(header.len(), 1 + 4 + 4 * 5 + 2);
+    // Time, four roads, five columns per wheel, the two DOFs of each wheel's quarter car,
+    // mode and fault.
+    assert_eq!(header.len(), 1 + 4 + 4 * 5 + 4 * 2 + 2);
+    assert_eq!(
+        header[25..29],
+        [
+            "mil_dof_x_s_0",
+            "mil_dof_x_u_0",
+            "mil_dof_x_s_1",
+            "mil_dof_x_u_1"
+        ]
+    );
     assert_eq!(
         header[5..10],
         [

@@ -117,6 +117,10 @@ pub struct Histories {
     pub emulated_position: Vec<Vec<f64>>,
     /// Emulated system: interface force per channel, its samples (N).
     pub emulated_force: Vec<Vec<f64>>,
+    /// MiL rig: every specimen DOF's displacement (m, or rad for a rotation; from the static
+    /// equilibrium), what transducers beyond the actuators' would measure: per part and
+    /// DOF, named `<dof>_<the part's first channel>`, its samples.
+    pub mil_dofs: Vec<(String, Vec<f64>)>,
     /// Controller status per sample.
     pub status: Vec<Status>,
 }
@@ -312,6 +316,17 @@ pub fn run<B: Board<CH>, const CH: usize>(
         mil_force: column(),
         emulated_position: column(),
         emulated_force: column(),
+        mil_dofs: parts
+            .iter()
+            .flat_map(|p| {
+                p.mil
+                    .specimen()
+                    .dofs
+                    .iter()
+                    .map(|d| (format!("{d}_{}", p.first_channel), Vec::with_capacity(n)))
+                    .collect::<Vec<_>>()
+            })
+            .collect(),
         status: Vec::with_capacity(n),
     };
     let mut roads: Vec<(PlantRoad, PlantRoad)> = parts
@@ -332,6 +347,7 @@ pub fn run<B: Board<CH>, const CH: usize>(
             *w = column.get(k).copied().unwrap_or(0.0);
         }
         // 1. Sample the plants.
+        let mut dof_histories = h.mil_dofs.iter_mut();
         for (p, (mil_road, emu_road)) in parts.iter_mut().zip(roads.iter_mut()) {
             let range = p.first_channel..p.first_channel + p.mil.channels();
             mil_road.pick(road, k, dt);
@@ -340,6 +356,11 @@ pub fn run<B: Board<CH>, const CH: usize>(
                 .sample(&applied[range.clone()], &mil_road.now, &mil_road.rate);
             p.emulated
                 .sample(&applied[range.clone()], &emu_road.now, &emu_road.rate);
+            let dofs = p.mil.specimen().len();
+            // `take` first: zip stops before drawing the next part's history.
+            for (q, (_, history)) in p.mil.state().iter().take(dofs).zip(dof_histories.by_ref()) {
+                history.push(*q);
+            }
             mil_pos[range.clone()].copy_from_slice(p.mil.position());
             mil_force[range.clone()].copy_from_slice(p.mil.force());
             for (c, (y, f)) in range.zip(p.emulated.position().iter().zip(p.emulated.force())) {

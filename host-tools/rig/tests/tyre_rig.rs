@@ -77,3 +77,19 @@ fn rig_starts_and_stays_at_rest() {
         assert!((f - load).abs() < 1e-3, "{f}");
     }
 }
+
+/// The MiL rig's DOF histories are the specimen's DOFs, named per part: the hub's is the
+/// hub actuator's attachment position, sample for sample; the body moves, less than the
+/// hub above the wheel-hop frequency's band.
+#[test]
+fn every_dof_is_recorded() {
+    let road = band_limited_noise(0.5, 50.0, 1.0, FS, 1e-3, true, 9);
+    let h = simulate(&road, 100e-6);
+    let names: Vec<&str> = h.mil_dofs.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["x_s_0", "x_u_0"]);
+    assert_eq!(h.mil_dofs[1].1, h.mil_position[0]);
+    let (body, hub) = (&h.mil_dofs[0].1, &h.mil_dofs[1].1);
+    assert_eq!(body.len(), h.len());
+    let moved = rms(body.iter().copied());
+    assert!(moved > 0.0 && moved < rms(hub.iter().copied()), "{moved}");
+}
