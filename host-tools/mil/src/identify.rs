@@ -16,8 +16,9 @@ pub struct IdentifyOptions {
     pub input: String,
     /// Output column (e.g. the measured force).
     pub output: String,
-    /// Welch segment length (samples).
-    pub segment_length: usize,
+    /// Welch segment length (samples); none: the workspace's rule for the shortest record
+    /// ([`WelchOptions::for_record`]).
+    pub segment_length: Option<usize>,
     /// Band kept in the table (Hz).
     pub band_hz: (f64, f64),
     /// Points with lower coherence are dropped.
@@ -31,6 +32,8 @@ pub struct IdentifyOptions {
 pub struct IdentifySummary {
     /// Sample rate of the records (Hz).
     pub sample_rate_hz: f64,
+    /// Welch segment length used (samples).
+    pub segment_length: usize,
     /// Welch segments averaged.
     pub segments: usize,
     /// Points written.
@@ -75,9 +78,13 @@ pub fn run_identify(o: &IdentifyOptions) -> Result<(FrfTable, IdentifySummary)> 
             output: y,
         })
         .collect();
-    let options = WelchOptions {
-        segment_length: o.segment_length,
-        ..WelchOptions::default()
+    let shortest = data.iter().map(|(u, _)| u.len()).min().unwrap_or(0);
+    let options = match o.segment_length {
+        Some(segment_length) => WelchOptions {
+            segment_length,
+            ..WelchOptions::default()
+        },
+        None => WelchOptions::for_record(shortest),
     };
     let estimate = h1_estimate(&records, fs, &options)?;
     let table = estimate.to_table(o.band_hz.0, o.band_hz.1, o.min_coherence)?;
@@ -85,6 +92,7 @@ pub fn run_identify(o: &IdentifyOptions) -> Result<(FrfTable, IdentifySummary)> 
     let points = table.points();
     let summary = IdentifySummary {
         sample_rate_hz: fs,
+        segment_length: options.segment_length,
         segments: estimate.segments,
         points: points.len(),
         frequency_range_hz: table.frequency_range(),

@@ -136,9 +136,10 @@ enum Command {
         /// Output column (e.g. the measured force).
         #[arg(long)]
         output: String,
-        /// Welch segment length (samples); resolution = sample rate / length.
-        #[arg(long, default_value_t = 4096)]
-        segment: usize,
+        /// Welch segment length (samples); resolution = sample rate / length. Default: the
+        /// longest power of two that fits 8 times into the shortest record, 16 to 4096.
+        #[arg(long)]
+        segment: Option<usize>,
         /// Band kept in the table, LOW:HIGH in Hz (the excited band).
         #[arg(long, default_value = "0.5:140")]
         band: String,
@@ -443,11 +444,13 @@ fn run(cli: Cli) -> Result<()> {
                 outln!("{}", serde_json::to_string(&summary)?);
             } else {
                 outln!(
-                    "{} points, {:.2}-{:.1} Hz, {} segments at {} Hz, lowest coherence {:.3}\nwrote {}",
+                    "{} points, {:.2}-{:.1} Hz, {} segments of {} samples at {} Hz, lowest \
+                     coherence {:.3}\nwrote {}",
                     summary.points,
                     summary.frequency_range_hz.0,
                     summary.frequency_range_hz.1,
                     summary.segments,
+                    summary.segment_length,
                     summary.sample_rate_hz,
                     summary.min_coherence,
                     summary.table
