@@ -274,8 +274,9 @@ pub struct CompareSection {
     pub f_min_hz: f64,
     /// Upper edge of the comparison band (Hz).
     pub f_max_hz: f64,
-    /// Welch segment length of the response estimate (samples).
-    pub segment: usize,
+    /// Welch segment length of the response estimate (samples); none: the workspace's rule
+    /// for the compared part of the run (`mil_identify::WelchOptions::for_record`).
+    pub segment: Option<usize>,
     /// Start of the comparison (s): the first `settle_s` of the run, where the controller
     /// ramps from its safe demand to the model's (bumpless only when the safe demand is
     /// the static one) and the rig settles, are left out of the figures.
@@ -287,7 +288,7 @@ impl Default for CompareSection {
         Self {
             f_min_hz: 1.0,
             f_max_hz: 30.0,
-            segment: 4096,
+            segment: None,
             settle_s: 0.5,
         }
     }

@@ -435,7 +435,10 @@ fn response(
     let fs = config.run.sample_rate_hz;
     let cmp = &config.compare;
     let skip = settle_samples(config, h.len());
-    if cmp.segment < 64 || cmp.segment > h.len() - skip {
+    let segment = cmp
+        .segment
+        .unwrap_or(WelchOptions::for_record(h.len() - skip).segment_length);
+    if segment < 64 || segment > h.len() - skip {
         // Too short a run for the estimate: no response section.
         return Ok(None);
     }
@@ -484,7 +487,7 @@ fn response(
     }
     let (mil_out, emu_out) = (&mil_out[skip..], &emu_out[skip..]);
     let options = WelchOptions {
-        segment_length: cmp.segment,
+        segment_length: segment,
         overlap: 0.75,
         window: Window::Hann,
     };
