@@ -561,19 +561,9 @@ impl Config {
                     .map_err(param_error)
             }
             ModelKind::Aero => {
-                let a = self
-                    .aero
-                    .as_ref()
+                let aero = self
+                    .aero_params()
                     .context("the aero run needs [numerical.aero]")?;
-                let aero = AeroParams {
-                    stiffness: a.stiffness,
-                    nominal_force: a.nominal_force,
-                    reference_speed: a.reference_speed_m_per_s,
-                    front_axle: a.front_axle_m,
-                    rear_axle: a.rear_axle_m,
-                    ..AeroParams::PAPER
-                };
-                debug_assert_eq!(Some(aero), self.aero_params());
                 let speed = self.speed_profile()?;
                 PreparedParams::new(&l.params(aero, filter), dt)
                     .map(|p| Validated::Aero(Box::new(p), speed))

@@ -582,14 +582,7 @@ impl SetUp {
                 // The tyre is the interface B_i = k_t + c_t V(s) between the road (the
                 // numerical interface position) and the hub.
                 let car = self.quarter_car(ps, t)?;
-                physical = Some(PartSection {
-                    dofs: vec![],
-                    mass: vec![],
-                    damping: vec![],
-                    stiffness: vec![],
-                    structure: Some(ps.to_path_buf()),
-                    model: Some(car.model),
-                });
+                physical = Some(structure_part(ps, Some(car.model)));
                 // The board's velocity estimate; under position control the tyre turns the
                 // measured force into a position through B_i⁻¹ without one.
                 let board = t.velocity_estimate == TyreVelocity::Board && control_force;
@@ -667,14 +660,7 @@ impl SetUp {
                         interface_position: vec![],
                     });
                 }
-                physical = Some(PartSection {
-                    dofs: vec![],
-                    mass: vec![],
-                    damping: vec![],
-                    stiffness: vec![],
-                    structure: Some(ps.to_path_buf()),
-                    model: Some(car.model),
-                });
+                physical = Some(structure_part(ps, Some(car.model)));
                 interface = Some(InterfaceSection {
                     location: "numerical".into(),
                     numerical_dofs: vec![],
@@ -701,16 +687,8 @@ impl SetUp {
                 ];
             }
             Pair::Structures(ns, ps, i) => {
-                let part = |file: &Path| PartSection {
-                    dofs: vec![],
-                    mass: vec![],
-                    damping: vec![],
-                    stiffness: vec![],
-                    structure: Some(file.to_path_buf()),
-                    model: None,
-                };
-                numerical = Some(part(ns));
-                physical = Some(part(ps));
+                numerical = Some(structure_part(ns, None));
+                physical = Some(structure_part(ps, None));
                 let m = i.channels.len();
                 let diagonal = |f: &dyn Fn(&InterfaceChannel) -> f64| {
                     (0..m)
@@ -1068,6 +1046,18 @@ fn structure_inputs(parts: &[&Path], base: &Path) -> Result<Vec<String>> {
         bail!("analysis.responses: the structures have no displacement input to respond to");
     }
     Ok(names)
+}
+
+/// The analysis' part of structure file `file`, already read as `model` or read there.
+fn structure_part(file: &Path, model: Option<mil_structure::Model>) -> PartSection {
+    PartSection {
+        dofs: vec![],
+        mass: vec![],
+        damping: vec![],
+        stiffness: vec![],
+        structure: Some(file.to_path_buf()),
+        model,
+    }
 }
 
 /// A response of the analysis.

@@ -23,13 +23,19 @@ fn write_record(path: &Path, command: &[f64], force: &[f32]) {
     }
 }
 
-#[test]
-fn identified_table_matches_the_reference_actuator_and_feeds_the_analysis() {
-    let act = ServoHydraulicActuator::REFERENCE;
-    let p = act.tracking().unwrap();
+/// The reference actuator's tracking response sampled with a zero-order hold at `FS`, and
+/// its cascade (what the simulated test records run through).
+fn reference_tracking() -> (mil_discretise::DiscreteZpk, model_core::CascadeCoefficients) {
+    let p = ServoHydraulicActuator::REFERENCE.tracking().unwrap();
     let tf = TransferFunction::new(p.numerator.clone(), p.denominator.clone()).unwrap();
     let discrete = zoh_tf(&tf, 1.0 / FS).unwrap();
     let cascade = discrete.to_cascade().unwrap();
+    (discrete, cascade)
+}
+
+#[test]
+fn identified_table_matches_the_reference_actuator_and_feeds_the_analysis() {
+    let (discrete, cascade) = reference_tracking();
     let dir = tempfile::tempdir().unwrap();
     let sweep = log_sine_sweep(0.5, 150.0, 60.0, FS, 1000.0);
     let noise = band_limited_noise(0.5, 140.0, 60.0, FS, 1000.0, true, 7);
@@ -123,11 +129,7 @@ fn identified_table_matches_the_reference_actuator_and_feeds_the_analysis() {
 /// second, longer record does not change the rule's choice.
 #[test]
 fn the_default_segment_follows_the_shortest_record() {
-    let act = ServoHydraulicActuator::REFERENCE;
-    let p = act.tracking().unwrap();
-    let tf = TransferFunction::new(p.numerator.clone(), p.denominator.clone()).unwrap();
-    let discrete = zoh_tf(&tf, 1.0 / FS).unwrap();
-    let cascade = discrete.to_cascade().unwrap();
+    let (discrete, cascade) = reference_tracking();
     let dir = tempfile::tempdir().unwrap();
     let mut records = Vec::new();
     for (name, seconds, seed) in [("short.csv", 2.0, 3), ("long.csv", 30.0, 4)] {
