@@ -459,14 +459,18 @@ impl SetUp {
         let static_n = hub.static_n;
         let model = model
             .with_static_n(&hub.name, f64::from(load))
-            .map_err(|_| {
+            .map_err(|e| {
                 let kg = (f64::from(load) * mil_rig::specimen::GRAVITY_M_PER_S2 - weight).abs()
                     < 0.01 * weight;
                 anyhow::anyhow!(
                     "numerical.tyre.static_load_n = {load} N does not hold the physical quarter \
                      car at rest: it weighs {weight:.1} N, and its hub actuator's static_n in \
                      physical.structure is {static_n} N{}",
-                    if kg { " -- the load given in kg?" } else { "" }
+                    if kg {
+                        " -- the load given in kg?".to_string()
+                    } else {
+                        format!(" ({e})")
+                    }
                 )
             })?;
         Ok(QuarterCarOnRig {
@@ -539,8 +543,9 @@ impl SetUp {
             }
             if !(n.roads.is_empty() && p.roads.is_empty()) {
                 bail!(
-                    "roads are for structures' displacement inputs (the tyre's quarter car \
-                     stands on its hub actuator only)"
+                    "roads are for the structures of a numerical and a physical structure (the \
+                     tyre's quarter car stands on its hub actuator only; the half car's posts \
+                     follow road_front and road_rear, in the file's order)"
                 );
             }
         }
