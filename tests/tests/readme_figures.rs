@@ -23,69 +23,13 @@ const TABLE: &str = "## Reference actuator (tyre example, paper section 4)";
 
 fn example(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("examples")
+        .join("../host-tools/mil/examples")
         .join(name)
 }
 
-/// README.md's section of the table: from its heading to the next heading.
-fn section() -> String {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../README.md");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let start = text
-        .find(TABLE)
-        .unwrap_or_else(|| panic!("README.md has no heading {TABLE:?}"));
-    let rest = &text[start + TABLE.len()..];
-    rest[..rest.find("\n## ").unwrap_or(rest.len())].to_string()
-}
-
-/// The rows of the README's table (the lines starting with `|` after its heading, up to the
-/// first line that does not).
-fn table_rows() -> Vec<String> {
-    section()
-        .lines()
-        .skip_while(|l| !l.starts_with('|'))
-        .take_while(|l| l.starts_with('|'))
-        .map(str::to_string)
-        .collect()
-}
-
-/// The row whose first cell is `first`.
-fn row(first: &str) -> String {
-    let rows = table_rows();
-    let found: Vec<&String> = rows
-        .iter()
-        .filter(|r| r.split('|').nth(1).map(str::trim) == Some(first))
-        .collect();
-    assert_eq!(
-        found.len(),
-        1,
-        "README.md's table has {} row(s) whose first cell is {first:?}; rows:\n{}",
-        found.len(),
-        rows.join("\n")
-    );
-    found[0].clone()
-}
-
-/// The row's "here" cell (the third).
-fn here(row: &str) -> &str {
-    row.split('|').nth(3).map_or("", str::trim)
-}
-
-/// Checks that the "here" cell of the row `first` holds every `(what, text)`; fails naming
-/// each one it does not hold, with the row.
+/// Checks that the "here" cell of the table's row `first` holds every `(what, text)`.
 fn check(first: &str, figures: &[(&str, String)]) {
-    let row = row(first);
-    let cell = here(&row);
-    let missing: Vec<String> = figures
-        .iter()
-        .filter(|(_, text)| !cell.contains(text.as_str()))
-        .map(|(what, text)| format!("  {what}: computed {text:?}"))
-        .collect();
-    assert!(
-        missing.is_empty(),
-        "README.md row {first:?} does not hold the computed figure(s):\n{}\nrow: {row}",
-        missing.join("\n")
-    );
+    mil_integration_tests::readme::assert_cell_holds(TABLE, first, figures);
 }
 
 /// `mil analyze` on an example set-up (its file as read, or edited by `edit`).
@@ -360,12 +304,7 @@ fn least_squares_control_sensitivity_peak_in_kn_per_mm() {
         f.noise_peak_with * 1e-6,
         f.noise_peak_with_hz
     );
-    // The README wraps its prose: compare with the line breaks as spaces.
-    let prose = section().replace('\n', " ");
-    assert!(
-        prose.contains(&text),
-        "README.md's section {TABLE:?} does not hold the computed figure: {text:?}"
-    );
+    mil_integration_tests::readme::assert_section_states(TABLE, &text);
 }
 
 #[test]
