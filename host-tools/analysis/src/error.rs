@@ -23,6 +23,9 @@ pub enum AnalysisError {
     /// A filter design failed or produced a filter that may not be exported.
     #[error("filter design: {0}")]
     Design(String),
+    /// A command-filter file is not one model-core can run.
+    #[error("command-filter file: {0}")]
+    FilterFile(String),
     /// Reading a set-up file failed.
     #[error("reading {path}: {source}")]
     Io {

@@ -81,7 +81,7 @@ impl FilterFile {
     /// Wrong format or version, a bad sample rate, too many sections, or a cascade model-core
     /// refuses.
     pub fn cascade(&self) -> Result<CascadeCoefficients> {
-        let bad = |m: String| AnalysisError::Design(m);
+        let bad = AnalysisError::FilterFile;
         if self.format != FILTER_FORMAT || self.version != 1 {
             return Err(bad(format!(
                 "not a {FILTER_FORMAT} version 1 file (format {:?}, version {})",
@@ -128,7 +128,12 @@ impl FilterFile {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
-        let cascade = file.cascade()?;
+        let cascade = file.cascade().map_err(|e| match e {
+            AnalysisError::FilterFile(m) => {
+                AnalysisError::FilterFile(format!("{}: {m}", path.display()))
+            }
+            other => other,
+        })?;
         Ok((file, cascade))
     }
 
