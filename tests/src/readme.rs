@@ -95,3 +95,23 @@ pub fn assert_section_states(heading: &str, figure: &str) {
         "README.md's section {heading:?} does not hold the computed figure: {figure:?}"
     );
 }
+
+/// Panics unless README.md's text from the first `start` up to the next `end` states
+/// `figure` (whitespace, line breaks included, read as single spaces).
+pub fn assert_paragraph_states(start: &str, end: &str, figure: &str) {
+    let text = text();
+    let from = text
+        .find(start)
+        .unwrap_or_else(|| panic!("README.md has no {start:?}"));
+    let to = text[from..]
+        .find(end)
+        .unwrap_or_else(|| panic!("README.md has no {end:?} after {start:?}"));
+    let paragraph = text[from..from + to]
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        paragraph.contains(figure),
+        "README states another figure than the code's {figure:?}:\n{paragraph}"
+    );
+}

@@ -1,12 +1,15 @@
-//! Real measured records (nonlinearbenchmark.org, see `data/README.md`): records the crate's
-//! simulator did not make.
+//! Real measured records (nonlinearbenchmark.org, see `host-tools/diagnose/data/README.md`):
+//! records the diagnosis' simulator did not make.
 
 use mil_diagnose::simulate::{prepare_inputs, simulate};
 use mil_diagnose::{diagnose, EffectKind, Model, Options, Record};
 use std::path::PathBuf;
 
+/// `rel` in the diagnosis crate's folder (its example models and benchmark records).
 fn path(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(rel)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../host-tools/diagnose")
+        .join(rel)
 }
 
 fn options() -> Options {
@@ -16,28 +19,13 @@ fn options() -> Options {
     }
 }
 
-/// The README's paragraph on the real records (the one naming Silverbox, EMPS and Bouc-Wen
-/// results): every figure printed there must be what these tests compute.
-fn readme_paragraph() -> String {
-    let text = std::fs::read_to_string(path("../../README.md")).unwrap();
-    let start = text
-        .find("On the Silverbox record")
-        .expect("the README's paragraph");
-    let end = text[start..]
-        .find("It writes `updated.toml`")
-        .expect("its end");
-    text[start..start + end]
-        .split_whitespace()
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// Asserts the README paragraph states `figure` (as formatted).
+/// Asserts README.md's paragraph on the real records (the one naming the Silverbox, EMPS
+/// and Bouc-Wen results) states `figure` (as formatted).
 fn in_readme(figure: String) {
-    let paragraph = readme_paragraph();
-    assert!(
-        paragraph.contains(&figure),
-        "README states another figure than the code's {figure:?}:\n{paragraph}"
+    mil_integration_tests::readme::assert_paragraph_states(
+        "On the Silverbox record",
+        "It writes `updated.toml`",
+        &figure,
     );
 }
 
