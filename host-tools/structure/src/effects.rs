@@ -623,7 +623,7 @@ impl CompiledLaw {
     /// [`ElementLaw::force`]: the force with lift-off.
     ///
     /// A law with no effect or a single one (the fits' usual case) is evaluated by a copy
-    /// of [`Self::force_with`] with its effect set as a constant: straight-line code after
+    /// of `force_with` with its effect set as a constant: straight-line code after
     /// one multi-way jump, instead of a test per effect. Other sets test each bit.
     #[inline(always)]
     pub fn force(&self, x: f64, v: f64, z: f64) -> f64 {
