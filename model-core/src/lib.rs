@@ -28,6 +28,7 @@
 pub mod aero;
 pub mod biquad;
 pub mod controller;
+pub mod element;
 pub mod limits;
 pub mod linalg;
 pub mod params;
@@ -44,6 +45,7 @@ pub use controller::{
     fault, Controller, ControllerParams, Mode, Model, ModelInput, PreparedParams, Status,
     BUMPLESS_FADE_S,
 };
+pub use element::ElementLaw;
 pub use limits::{DemandLimits, RateLimiter};
 pub use params::{ParamError, Range};
 pub use state_space::{DeltaStateSpace, DeltaStateSpaceCoefficients};

@@ -70,6 +70,8 @@ pub enum Field {
     SubstructureGround,
     /// Substructure causality selector.
     SubstructureCausality,
+    /// A substructure element's nonlinear law ([`crate::element::ElementLaw`]).
+    SubstructureElement,
     /// Command filter coefficients.
     CommandFilter,
     /// Demand amplitude limits.
