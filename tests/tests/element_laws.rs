@@ -2,7 +2,8 @@
 //! file (`mil_structure`, `f64`, the simulated rig's and diagnosis'): every effect alone and
 //! all at once, over a grid of compressions and rates through the stops, lift-off and the
 //! friction's smoothing, agree to 2e-6 of the force's scale (the sum of the terms'
-//! magnitudes: `f32` rounding of a handful of operations).
+//! magnitudes: `f32` rounding of a handful of operations); the structure's export
+//! (`to_board`) gives exactly those laws and refuses what the board cannot run by name.
 
 use mil_structure::{EffectKind, Element};
 use model_core::ElementLaw;
@@ -124,6 +125,9 @@ fn cases() -> Vec<Case> {
 fn the_board_s_element_laws_are_the_structure_file_s() {
     for case in cases() {
         case.board.validate().unwrap();
+        // The structure's export is the board's law written out by hand above.
+        let exported = case.host.law().unwrap().to_board().unwrap();
+        assert_eq!(exported, case.board, "{}", case.name);
         let b = &case.board;
         let mut worst = 0.0_f64;
         for i in -40..=40 {
@@ -156,5 +160,32 @@ fn the_board_s_element_laws_are_the_structure_file_s() {
             "{}: worst difference {worst:.2e} of the force's scale",
             case.name
         );
+    }
+}
+
+/// What the board cannot run is refused by name: backlash and hysteresis (no real-time form
+/// yet), and values outside the board's ranges.
+#[test]
+fn what_the_board_cannot_run_is_refused_by_name() {
+    let linear = || Element::linear(K, C);
+    for (element, name) in [
+        (
+            linear().with(EffectKind::Backlash, &[("half_gap_m", 1e-3)]),
+            "backlash",
+        ),
+        (
+            linear().with(
+                EffectKind::Hysteresis,
+                &[("alpha", 0.5), ("beta_per_m", 100.0), ("gamma_per_m", 50.0)],
+            ),
+            "hysteresis",
+        ),
+        (
+            linear().with(EffectKind::CubicStiffness, &[("stiffness_n_per_m3", 1e20)]),
+            "range",
+        ),
+    ] {
+        let e = element.law().unwrap().to_board().unwrap_err().to_string();
+        assert!(e.contains(name), "{e}");
     }
 }

@@ -186,6 +186,53 @@ pub struct ElementLaw {
 }
 
 impl ElementLaw {
+    /// The board's form of the law (model-core's [`model_core::ElementLaw`], `f32`), what
+    /// model-core's substructure runs: the same force at every compression and rate (within
+    /// `f32` rounding). Backlash and hysteresis have no real-time form on the board yet and
+    /// are refused by name, as are values outside the board's ranges.
+    ///
+    /// # Errors
+    /// [`crate::Error::Model`] naming the effect or the range.
+    pub fn to_board(&self) -> crate::Result<model_core::ElementLaw> {
+        for (on, name) in [
+            (self.backlash.is_some(), EffectKind::Backlash),
+            (self.hysteresis.is_some(), EffectKind::Hysteresis),
+        ] {
+            if on {
+                return Err(crate::Error::Model(format!(
+                    "effect {name} has no real-time form on the board (it runs lift_off, \
+                     coulomb_friction, cubic_stiffness, bump_stop, quadratic_damping and \
+                     asymmetric_damping)"
+                )));
+            }
+        }
+        let c_abs = self.c_abs.unwrap_or(0.0);
+        let (friction_force, friction_velocity) = self.coulomb.unwrap_or((0.0, 1.0e-3));
+        let (bump_gap, bump_stiffness) = self.bump.unwrap_or((0.0, 0.0));
+        let (rebound_gap, rebound_stiffness) = self.rebound.unwrap_or((0.0, 0.0));
+        let board = model_core::ElementLaw {
+            stiffness: self.k as f32,
+            bump_damping: (self.c + c_abs) as f32,
+            rebound_damping: (self.c - c_abs) as f32,
+            cubic_stiffness: self.k3.unwrap_or(0.0) as f32,
+            quadratic_damping: self.c2.unwrap_or(0.0) as f32,
+            bump_gap: bump_gap as f32,
+            bump_stiffness: bump_stiffness as f32,
+            rebound_gap: rebound_gap as f32,
+            rebound_stiffness: rebound_stiffness as f32,
+            friction_force: friction_force as f32,
+            friction_velocity: friction_velocity as f32,
+            preload: self.lift_off.unwrap_or(0.0) as f32,
+            lift_off: u32::from(self.lift_off.is_some()),
+        };
+        board.validate().map_err(|e| {
+            crate::Error::Model(format!(
+                "the law is outside the board's ranges ({e:?}; see model_core::element)"
+            ))
+        })?;
+        Ok(board)
+    }
+
     /// A linear element with stiffness `k` (N/m) and damping `c` (N·s/m).
     pub fn linear(k: f64, c: f64) -> Self {
         Self {
