@@ -32,9 +32,9 @@
 //! numerical), which is what model-core's models compute.
 
 use crate::config::{
-    AeroSection, CompareSection, Config, ControllerSection, LimitsSection, LinksSection, ModelKind,
-    ModelSection, RigSection, RoadCoupling, RunSection, SensorsSection, StructureOnRig,
-    SubstructureChannel, SubstructureSection, TyreSection,
+    AeroSection, CompareSection, Config, ControllerSection, HalfCarOnRig, LimitsSection,
+    LinksSection, ModelKind, ModelSection, RigSection, RoadCoupling, RunSection, SensorsSection,
+    StructureOnRig, SubstructureChannel, SubstructureSection, TyreSection,
 };
 use crate::signals::{RoadInput, SpeedInput};
 use anyhow::{bail, Context, Result};
@@ -369,13 +369,10 @@ impl SetUp {
                 forces.len()
             );
         };
-        let at = |j: usize| -> Result<String> {
-            model.file.inputs[j]
-                .at
-                .clone()
-                .context("physical.structure: a force input acts nowhere")
-        };
-        let axles = [at(front)?, at(rear)?];
+        let axles = [
+            force_input_at(&model, front)?,
+            force_input_at(&model, rear)?,
+        ];
         let rows: Vec<Vec<f64>> = axles.iter().filter_map(|a| model.position_of(a)).collect();
         if let [f, r] = &rows[..] {
             if f.len() == 2 && f[0] == 1.0 && r[0] == 1.0 {
@@ -446,14 +443,14 @@ impl SetUp {
                 post.name
             );
         }
-        // Where the hub actuator acts, as the file names it.
         let at = model
-            .file
             .inputs
             .iter()
-            .find(|i| i.name == hub.name)
-            .and_then(|i| i.at.clone())
-            .context("physical.structure: the hub actuator acts nowhere")?;
+            .position(|i| i.name == hub.name)
+            .map_or_else(
+                || bail!("physical.structure: no input {:?}", hub.name),
+                |j| force_input_at(&model, j),
+            )?;
         let load = tyre.static_load_n.unwrap_or(hub.static_n as f32);
         let weight: f64 = -model.static_force.iter().sum::<f64>();
         let static_n = hub.static_n;
@@ -827,12 +824,7 @@ impl SetUp {
                     rear_axle_m: a.rear_axle_m,
                     speed_m_per_s: self.excitation.speed_m_per_s.map(|v| v as f32),
                 });
-                let car = self.half_car(ps, a)?;
-                rig.half_car = Some(crate::config::HalfCarOnRig {
-                    model: car.model,
-                    axles: car.axles,
-                    actuators: car.actuators,
-                });
+                rig.half_car = Some(self.half_car(ps, a)?);
                 (ModelKind::Aero, vec!["road_heave".to_string()])
             }
             Pair::Structures(ns, ps, i) => {
@@ -1017,14 +1009,14 @@ impl SetUp {
     }
 }
 
-/// The four-poster's half car: the structure, its axle points (where the two force inputs
-/// act), the force inputs' names and its two displacement inputs' indices (front and rear
-/// post).
-struct HalfCarOnRig {
-    model: mil_structure::Model,
-    axles: [String; 2],
-    actuators: [String; 2],
-    posts: [usize; 2],
+/// Where force input `j` of `model` acts: the DOF or point its file names (`at`).
+fn force_input_at(model: &mil_structure::Model, j: usize) -> Result<String> {
+    model
+        .file
+        .inputs
+        .get(j)
+        .and_then(|i| i.at.clone())
+        .context("physical.structure: a force input acts nowhere")
 }
 
 /// The tyre rig's quarter car: the structure with the hub actuator holding the static wheel

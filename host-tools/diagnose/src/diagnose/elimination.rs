@@ -5,6 +5,7 @@
 //! the reduced model ([`STEPWISE_PASSES`]).
 
 use super::criterion::Evaluation;
+use super::fit::Fit;
 use super::output_error::refine_output_error;
 use super::parameters::{strength, without_effect, Param};
 use super::report::NamedDetail;
@@ -32,6 +33,30 @@ pub(super) struct Selected {
     pub(super) added_of: Vec<usize>,
 }
 
+impl Branch {
+    /// The branch's selection (its free parameters those of its current fit), and that fit.
+    fn into_selected(self) -> (Fit, Selected) {
+        let Branch {
+            current,
+            updated,
+            cur_eval,
+            covariance: (cov_params, cov),
+            named,
+            added_of,
+        } = self;
+        let selected = Selected {
+            updated,
+            cov_params,
+            cov,
+            named,
+            free_now: current.free.clone(),
+            cur_eval,
+            added_of,
+        };
+        (current, selected)
+    }
+}
+
 impl Selection<'_> {
     /// Stepwise: the backward elimination below, and when it drops an effect while rounds
     /// are left, the forward search goes on from the reduced model for those rounds (an
@@ -40,23 +65,7 @@ impl Selection<'_> {
     pub(super) fn stepwise(&self, mut main: Branch, found: &mut Findings) -> Selected {
         let mut passes = 0;
         loop {
-            let Branch {
-                current,
-                updated,
-                cur_eval,
-                covariance: (cov_params, cov),
-                named,
-                added_of,
-            } = main;
-            let mut sel = Selected {
-                updated,
-                cov_params,
-                cov,
-                named,
-                free_now: current.free.clone(),
-                cur_eval,
-                added_of,
-            };
+            let (current, mut sel) = main.into_selected();
             let dropped = self.eliminate(&mut sel, &mut found.notes);
             if dropped.is_empty()
                 || passes >= STEPWISE_PASSES
@@ -89,23 +98,7 @@ impl Selection<'_> {
                 true,
             );
             if main.named.len() == before {
-                let Branch {
-                    current,
-                    updated,
-                    cur_eval,
-                    covariance: (cov_params, cov),
-                    named,
-                    added_of,
-                } = main;
-                return Selected {
-                    updated,
-                    cov_params,
-                    cov,
-                    named,
-                    free_now: current.free,
-                    cur_eval,
-                    added_of,
-                };
+                return main.into_selected().1;
             }
         }
     }
