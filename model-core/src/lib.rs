@@ -50,7 +50,8 @@ pub use limits::{DemandLimits, RateLimiter};
 pub use params::{ParamError, Range};
 pub use state_space::{DeltaStateSpace, DeltaStateSpaceCoefficients};
 pub use substructure::{
-    Causality, InterfaceParams, SubstructureModel, SubstructureParams, MAX_DOF,
+    Causality, InterfaceParams, SubstructureElement, SubstructureModel, SubstructureParams,
+    MAX_DOF, MAX_ELEMENTS,
 };
 pub use tyre::{TyreModel, TyreModelParams, TyreParams};
 pub use velocity::{VelocityEstimator, VelocityFilterCoefficients};

@@ -2,7 +2,7 @@
 //!
 //! A bare-metal binary for the rig board's MCU (STM32F405RG, Cortex-M4F,
 //! `thumbv7em-none-eabihf`) that runs in QEMU's `netduinoplus2` machine and prints how many
-//! **instructions** one [`Controller::step`] costs, for four controller configurations:
+//! **instructions** one [`Controller::step`] costs, for five controller configurations:
 //!
 //! | name | controller |
 //! | --- | --- |
@@ -10,6 +10,7 @@
 //! | `aero2` | `Controller<AeroModel, 2>`, [`AeroParams::PAPER`], no command filter |
 //! | `tyre4-filter4` | `tyre4` with a 4-section command filter on each channel |
 //! | `substructure2` | `Controller<SubstructureModel<2>, 2>`, a 2-DOF quarter car (admittance) |
+//! | `substructure2-elements` | `substructure2` with its two road springs as nonlinear elements, every effect on (stops, cubic, asymmetric and quadratic damping, friction, lift-off) |
 //!
 //! Each controller is built with [`Controller::with_params`] (parameters hidden from the
 //! optimiser, as if they had arrived at run time), started, and stepped [`STEPS`] times at
@@ -69,8 +70,9 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio, hprintln};
 use model_core::{
     AeroModel, AeroParams, BiquadCoefficients, CascadeCoefficients, Causality, Controller,
-    ControllerParams, DemandLimits, Mode, Model, ModelInput, SubstructureModel, SubstructureParams,
-    TyreModel, TyreModelParams, TyreParams, MAX_SECTIONS,
+    ControllerParams, DemandLimits, ElementLaw, Mode, Model, ModelInput, SubstructureElement,
+    SubstructureModel, SubstructureParams, TyreModel, TyreModelParams, TyreParams, MAX_DOF,
+    MAX_SECTIONS,
 };
 
 /// Sample period (s): 5 kHz, the rig's control rate.
@@ -455,6 +457,41 @@ fn substructure_params() -> ControllerParams<SubstructureParams<2>, 2> {
     }
 }
 
+/// `substructure2` with its road springs and dampers as nonlinear elements carrying every
+/// effect the board runs (the friction's `tanh` included), so the step pays for all of them.
+fn substructure_elements_params() -> ControllerParams<SubstructureParams<2>, 2> {
+    let mut p = substructure_params();
+    let m = &mut p.model;
+    m.element_count = 2;
+    for (i, (k, c)) in [(4.0e4, 20.0), (2.0e4, 10.0)].into_iter().enumerate() {
+        m.ground_stiffness[i][i] = 0.0;
+        m.ground_damping[i][i] = 0.0;
+        let mut dof_coefficients = [0.0; MAX_DOF];
+        dof_coefficients[i] = -1.0;
+        let mut road_coefficients = [0.0; 2];
+        road_coefficients[i] = 1.0;
+        m.elements[i] = SubstructureElement {
+            dof_coefficients,
+            road_coefficients,
+            law: ElementLaw {
+                rebound_damping: 2.0 * c,
+                cubic_stiffness: 1.0e9,
+                quadratic_damping: 100.0,
+                bump_gap: 0.002,
+                bump_stiffness: 2.0e5,
+                rebound_gap: 0.003,
+                rebound_stiffness: 1.0e5,
+                friction_force: 5.0,
+                friction_velocity: 0.01,
+                preload: 100.0,
+                lift_off: 1,
+                ..ElementLaw::linear(k, c)
+            },
+        };
+    }
+    p
+}
+
 /// Substructure inputs: interface forces of ±50 N and a road of ±5 mm.
 fn substructure_input(s: f32, c: f32, input: &mut ModelInput<2>) {
     input.force = [50.0 * s, -30.0 * c];
@@ -489,6 +526,13 @@ fn main() -> ! {
     bench::<SubstructureModel<2>, 2>(
         "substructure2",
         &substructure_params(),
+        calibration,
+        3.0,
+        substructure_input,
+    );
+    bench::<SubstructureModel<2>, 2>(
+        "substructure2-elements",
+        &substructure_elements_params(),
         calibration,
         3.0,
         substructure_input,

@@ -5,6 +5,7 @@
 use crate::signals::{RoadInput, SpeedInput, SpeedProfile};
 use anyhow::{bail, Context, Result};
 use mil_rig::experiment::PreparedSubstructure;
+use model_core::substructure::MAX_ELEMENTS;
 use model_core::{
     AeroParams, CascadeCoefficients, Causality, ControllerParams, DemandLimits, InterfaceParams,
     PreparedParams, SubstructureParams, TyreModelParams, TyreParams, MAX_DOF,
@@ -142,6 +143,22 @@ pub struct SubstructureSection {
     pub velocity_cutoff_hz: f32,
     /// One per actuator channel, in channel order (1 to 4).
     pub channels: Vec<SubstructureChannel>,
+    /// The nonlinear elements (model-core's, up to its `MAX_ELEMENTS`); their linear part
+    /// is not in `stiffness` and `damping` (model-core adds it).
+    pub elements: Vec<BoardElement>,
+}
+
+/// A nonlinear element of the board's substructure.
+#[derive(Clone, Debug)]
+pub struct BoardElement {
+    /// The structure file's element name, for messages.
+    pub name: String,
+    /// Compression per unit of each DOF (m/m, m/rad), in `dofs` order.
+    pub dof_coefficients: Vec<f32>,
+    /// Compression per unit of each channel's road input (m/m), in channel order.
+    pub road_coefficients: Vec<f32>,
+    /// The law, the board's form.
+    pub law: model_core::ElementLaw,
 }
 
 /// `[[substructure.channels]]`: one actuator channel of the substructure.
@@ -570,6 +587,8 @@ impl Config {
                 if self.speed.is_some() {
                     bail!("excitation.speed is for the aero model");
                 }
+                s.check_elements(dt)?;
+                s.check_elements(dt)?;
                 let prepared = match s.channels.len() {
                     1 => PreparedSubstructure::One(Box::new(
                         PreparedParams::new(&l.params(s.params::<1>()?, filter), dt)
@@ -616,6 +635,7 @@ fn set_up_key(field: model_core::params::Field) -> &'static str {
         | F::SubstructureDamping
         | F::SubstructureStiffness
         | F::SubstructureGround => "numerical.structure",
+        F::SubstructureElement => "numerical.structure (its elements with effects)",
         F::SubstructureInterface => "interface.channels",
         F::CommandFilter => "controller.filter",
         F::DemandAmplitude => "controller.limits min / max",
@@ -740,7 +760,60 @@ impl SubstructureSection {
                 p.ground_damping[j][c] += r.damping_n_s_per_m;
             }
         }
+        if self.elements.len() > MAX_ELEMENTS {
+            bail!(
+                "numerical.structure: {} elements with effects; the board runs up to                  {MAX_ELEMENTS} (the others must be linear)",
+                self.elements.len()
+            );
+        }
+        p.element_count = self.elements.len() as u32;
+        for (slot, e) in p.elements.iter_mut().zip(&self.elements) {
+            if e.dof_coefficients.len() != n || e.road_coefficients.len() != CH {
+                bail!(
+                    "numerical.structure: element {:?}: coefficient sizes",
+                    e.name
+                );
+            }
+            slot.dof_coefficients[..n].copy_from_slice(&e.dof_coefficients);
+            slot.road_coefficients.copy_from_slice(&e.road_coefficients);
+            slot.law = e.law;
+        }
         Ok(p)
+    }
+}
+
+impl SubstructureSection {
+    /// Names the first element whose explicit part model-core refuses as too stiff for the
+    /// step `dt` (s) on its mass (each element's check is its own: it is tried alone).
+    ///
+    /// # Errors
+    /// That element, with what to change.
+    fn check_elements(&self, dt: f32) -> Result<()> {
+        let Ok(full) = self.params::<1>().or_else(|_| {
+            // The check does not depend on the channels: any one serves.
+            let mut one = self.clone();
+            one.channels.truncate(1);
+            one.params::<1>()
+        }) else {
+            return Ok(()); // sizes are reported by `params` itself
+        };
+        for (i, e) in self.elements.iter().enumerate() {
+            let mut alone = full;
+            alone.element_count = 1;
+            alone.elements[0] = full.elements[i];
+            if let Err(model_core::ParamError::Unstable(_)) =
+                <model_core::SubstructureModel<1> as model_core::Model<1>>::prepare(&alone, dt)
+            {
+                bail!(
+                    "numerical.structure: element {:?}: its stops, dry-friction smoothing or \
+                     lift-off are too stiff for the control rate on the mass it moves (k T²/m \
+                     or c T/m above 1, see model-core's substructure docs): a softer stop, a \
+                     larger smoothing velocity or a higher sample rate",
+                    e.name
+                );
+            }
+        }
+        Ok(())
     }
 }
 

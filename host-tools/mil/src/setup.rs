@@ -892,9 +892,11 @@ impl SetUp {
         Ok(config)
     }
 
-    /// The board's substructure from a numerical structure file: its linearisation, the
-    /// springs and dampers to each mapped displacement input as that channel's road
-    /// couplings; and the structure's inputs that follow road 0.
+    /// The board's substructure from a numerical structure file: the linearisation of its
+    /// linear elements, the springs and dampers to each mapped displacement input as that
+    /// channel's road couplings, its elements with effects as the board's nonlinear
+    /// elements (their law's board form: what the board cannot run is refused by element
+    /// and effect); and the structure's inputs that follow road 0.
     fn board_substructure(
         &self,
         file: &Path,
@@ -903,16 +905,16 @@ impl SetUp {
         let path = self.base.join(file);
         let model = mil_structure::Model::read(&path)
             .map_err(|e| anyhow::anyhow!("numerical.structure: {e}"))?;
-        if let Some(e) = model.elements.iter().find(|e| !e.law.kinds().is_empty()) {
-            bail!(
-                "numerical.structure {}: element {:?} has effects ({:?}); the board's \
-                 substructure model is linear",
-                path.display(),
-                e.name,
-                e.law.kinds()
-            );
+        let (nonlinear, linear): (Vec<_>, Vec<_>) = model
+            .elements
+            .iter()
+            .cloned()
+            .partition(|e| !e.law.kinds().is_empty());
+        let l = mil_structure::Model {
+            elements: linear,
+            ..model.clone()
         }
-        let l = model.linearised();
+        .linearised();
         let n = model.n();
         let channels = interface.channels.len();
         let mut stiffness: Vec<Vec<f64>> = (0..n)
@@ -923,6 +925,7 @@ impl SetUp {
             .collect();
         let mut roads: Vec<Vec<RoadCoupling>> = vec![Vec::new(); channels];
         let mut road_0 = Vec::new();
+        let mut road_of = vec![None; model.inputs.len()];
         for name in self.numerical.roads.keys() {
             if !model
                 .inputs
@@ -951,6 +954,7 @@ impl SetUp {
             else {
                 continue;
             };
+            road_of[j] = Some(c);
             if c == 0 {
                 road_0.push(input.name.clone());
             }
@@ -967,6 +971,30 @@ impl SetUp {
                 }
             }
         }
+        let elements = nonlinear
+            .iter()
+            .map(|e| {
+                let law = e.law.to_board().map_err(|err| {
+                    anyhow::anyhow!(
+                        "numerical.structure {}: element {:?}: {err}",
+                        path.display(),
+                        e.name
+                    )
+                })?;
+                let mut road_coefficients = vec![0.0f32; channels];
+                for (b, c) in e.b.iter().zip(&road_of) {
+                    if let Some(c) = c {
+                        road_coefficients[*c] += *b as f32;
+                    }
+                }
+                Ok(crate::config::BoardElement {
+                    name: e.name.clone(),
+                    dof_coefficients: e.a.iter().map(|&a| a as f32).collect(),
+                    road_coefficients,
+                    law,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
         let f32s = |m: Vec<Vec<f64>>| -> Vec<Vec<f32>> {
             m.into_iter()
                 .map(|r| r.into_iter().map(|v| v as f32).collect())
@@ -1003,6 +1031,7 @@ impl SetUp {
                 stiffness: f32s(stiffness),
                 velocity_cutoff_hz: self.numerical.velocity_cutoff_hz.unwrap_or(0.0),
                 channels,
+                elements,
             },
             road_0,
         ))
@@ -1149,19 +1178,63 @@ mod tests {
             SetUp::from_toml(&tyre, &base).is_err(),
             "unknown key refused"
         );
+        // Effects: those the board runs become its nonlinear elements; hysteresis, which it
+        // cannot run, and a stop too stiff for the rate on 10 kg are refused by name.
         let dir = tempfile::tempdir().unwrap();
-        let numerical = std::fs::read_to_string(examples().join("two-dof-numerical.toml"))
-            .unwrap()
-            + "\n[[effect]]\neffect = \"cubic_stiffness\"\nelement = \"k_n, c_n to the road\"\nparameters = { stiffness_n_per_m3 = 1e9 }\n";
-        std::fs::write(dir.path().join("two-dof-numerical.toml"), numerical).unwrap();
         for f in ["two-dof-physical.toml", "two-dof-filter.json"] {
             std::fs::copy(examples().join(f), dir.path().join(f)).unwrap();
         }
-        let e = match SetUp::from_toml(&text, dir.path()).and_then(|s| s.run()) {
-            Ok(_) => panic!("effects accepted"),
+        let with_effect = |effect: &str, parameters: &str| {
+            let numerical = std::fs::read_to_string(examples().join("two-dof-numerical.toml"))
+                .unwrap()
+                + &format!(
+                    "\n[[effect]]\neffect = \"{effect}\"\nelement = \"k_n, c_n to the road\"\n\
+                     parameters = {{ {parameters} }}\n"
+                );
+            std::fs::write(dir.path().join("two-dof-numerical.toml"), numerical).unwrap();
+            SetUp::from_toml(&text, dir.path()).and_then(|s| s.run())
+        };
+        let cubic = with_effect("cubic_stiffness", "stiffness_n_per_m3 = 1e9")
+            .unwrap()
+            .substructure
+            .unwrap();
+        assert_eq!((cubic.stiffness[0][0], cubic.damping[0][0]), (0.0, 0.0));
+        assert!(cubic.channels[0].road.is_empty());
+        assert_eq!(cubic.elements.len(), 1);
+        let e = &cubic.elements[0];
+        assert_eq!(
+            (e.law.stiffness, e.law.cubic_stiffness, e.law.bump_damping),
+            (4.0e4, 1.0e9, 20.0)
+        );
+        assert_eq!(
+            (&e.dof_coefficients[..], &e.road_coefficients[..]),
+            (&[-1.0f32][..], &[1.0f32][..])
+        );
+        let refused = |r: anyhow::Result<crate::config::Config>| match r {
+            Ok(_) => panic!("accepted"),
             Err(e) => format!("{e:#}"),
         };
-        assert!(e.contains("linear") && e.contains("CubicStiffness"), "{e}");
+        let hysteresis = refused(with_effect(
+            "hysteresis",
+            "alpha = 0.5, a = 1.0, beta_per_m = 100.0, gamma_per_m = 50.0, n = 1.0",
+        ));
+        assert!(
+            hysteresis.contains("k_n, c_n to the road") && hysteresis.contains("hysteresis"),
+            "{hysteresis}"
+        );
+        // k_b T²/m = 5e7 · 2.5e-7 / 10 = 1.25.
+        let stiff = refused(
+            with_effect("bump_stop", "gap_m = 1e-3, stiffness_n_per_m = 5e7").and_then(|c| {
+                c.validate()?;
+                Ok(c)
+            }),
+        );
+        assert!(
+            stiff.contains("k_n, c_n to the road") && stiff.contains("too stiff"),
+            "{stiff}"
+        );
+        let softer = with_effect("bump_stop", "gap_m = 1e-3, stiffness_n_per_m = 3e7").unwrap();
+        softer.validate().unwrap();
     }
 
     /// The physical structures the tyre and the aero model need are checked when the set-up
