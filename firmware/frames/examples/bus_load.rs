@@ -25,18 +25,44 @@ fn main() {
     }
     println!();
     println!(
-        "| schedule | load at 2 kHz (worst / nominal) | highest sample rate within {:.0} % |",
+        "Kept free on the busiest bus: status {} Hz, XCP and commands {:.0} kbit/s; the speed at {} Hz where a model takes it.",
+        bus_load::HEARTBEAT_HZ,
+        bus_load::XCP_HEADROOM_BIT_PER_S / 1e3,
+        bus_load::SPEED_HZ
+    );
+    println!();
+    println!(
+        "| configuration | buses | rate | load of the busiest bus (worst / nominal) | highest rate within {:.0} % |",
         100.0 * BUDGET
     );
-    println!("|---|---|---|");
+    println!("|---|---|---|---|---|");
     for (name, s) in [
         ("tyre x1", Schedule::tyre(1, 2000.0)),
-        ("tyre x2", Schedule::tyre(2, 2000.0)),
-        ("tyre x4", Schedule::tyre(4, 2000.0)),
-        ("aero x2, speed on one channel", Schedule::aero(2000.0)),
+        ("tyre x2", Schedule::tyre(2, 1000.0)),
+        ("tyre x4", Schedule::tyre(4, 1000.0)),
+        ("tyre x4", Schedule::tyre(4, 1000.0).on_buses(2)),
+        ("aero x2 (ride heights, speed)", Schedule::aero(1000.0)),
+        (
+            "substructure x2, positions in",
+            Schedule::substructure(2, false, 1000.0),
+        ),
+        (
+            "substructure x2, forces in",
+            Schedule::substructure(2, true, 1000.0),
+        ),
+        (
+            "substructure x4, forces in",
+            Schedule::substructure(4, true, 1000.0).on_buses(2),
+        ),
     ] {
+        let verdict = match s.check(BIT_PER_S) {
+            Ok(()) => "",
+            Err(_) => " (over budget: refused)",
+        };
         println!(
-            "| {name} | {:.1} % / {:.1} % | {:.0} Hz |",
+            "| {name} | {} | {:.0} Hz | {:.1} % / {:.1} %{verdict} | {:.0} Hz |",
+            s.buses,
+            s.sample_rate_hz,
             100.0 * s.load(BIT_PER_S),
             100.0 * s.load_nominal(BIT_PER_S),
             s.max_sample_rate_hz(BIT_PER_S, BUDGET)

@@ -720,6 +720,9 @@ fn frame_lengths() {
 #[test]
 fn bus_load_budget() {
     const BIT_PER_S: f64 = 1e6;
+    // Worst-case bits: Measurement (7 B) 125 + Demand (6 B) 115 per channel and sample;
+    // MeasurementAux (6 B) 115; Status (8 B) 135 at 10 Hz; XCP headroom 50 kbit/s.
+    let fixed = 135.0 * 10.0 + 50e3;
     let one = Schedule::tyre(1, 2000.0);
     let load = one.load(BIT_PER_S);
     println!(
@@ -727,34 +730,68 @@ fn bus_load_budget() {
         100.0 * load,
         100.0 * one.load_nominal(BIT_PER_S)
     );
-    assert!((load - 0.481_35).abs() < 1e-9, "{load}");
-    assert!(load <= bus_load::BUDGET);
-    assert!((one.load_nominal(BIT_PER_S) - 0.397_11).abs() < 1e-9);
-
-    let four = Schedule::tyre(4, 2000.0);
-    println!(
-        "tyre x4 at 2 kHz: {:.1} % worst case",
-        100.0 * four.load(BIT_PER_S)
+    assert!(
+        (load - (240.0 * 2000.0 + fixed) / BIT_PER_S).abs() < 1e-12,
+        "{load}"
     );
-    assert!(four.load(BIT_PER_S) > 1.0);
+    assert_eq!(one.check(BIT_PER_S), Ok(()));
+    let nominal = (198.0 * 2000.0 + 111.0 * 10.0 + 50e3) / BIT_PER_S;
+    assert!((one.load_nominal(BIT_PER_S) - nominal).abs() < 1e-12);
 
+    // Tyre x4 at 1 kHz: beyond the budget on one bus, within it on two.
+    let four = Schedule::tyre(4, 1000.0);
+    let over = four.check(BIT_PER_S).expect_err("one bus is too little");
+    println!(
+        "tyre x4 at 1 kHz: one bus {:.1} % (at most {:.0} Hz), two buses {:.1} %",
+        100.0 * over.load,
+        over.max_sample_rate_hz,
+        100.0 * four.on_buses(2).load(BIT_PER_S)
+    );
+    assert!((over.load - (960.0 * 1000.0 + fixed) / BIT_PER_S).abs() < 1e-12);
+    assert_eq!(four.on_buses(2).channels_on_busiest(), 2);
+    assert_eq!(four.on_buses(2).check(BIT_PER_S), Ok(()));
+    // Aero x2 at 1 kHz, speed at 100 Hz.
+    let aero = Schedule::aero(1000.0);
+    assert!(
+        (aero.load(BIT_PER_S) - (480.0 * 1000.0 + 115.0 * 100.0 + fixed) / BIT_PER_S).abs() < 1e-12
+    );
+    assert_eq!(aero.check(BIT_PER_S), Ok(()));
+
+    let room = 0.6 * BIT_PER_S - fixed;
     for (name, s, want) in [
-        ("tyre x1", Schedule::tyre(1, 0.0), 2494.375),
-        ("tyre x2", Schedule::tyre(2, 0.0), 1247.1875),
-        ("tyre x4", Schedule::tyre(4, 0.0), 623.59375),
+        ("tyre x1", Schedule::tyre(1, 0.0), room / 240.0),
+        ("tyre x2", Schedule::tyre(2, 0.0), room / 480.0),
+        ("tyre x4, one bus", Schedule::tyre(4, 0.0), room / 960.0),
         (
-            "aero x2 (speed on one)",
-            Schedule::aero(0.0),
-            1_006.134_453_781_512_6,
+            "tyre x4, two buses",
+            Schedule::tyre(4, 0.0).on_buses(2),
+            room / 480.0,
+        ),
+        ("aero x2", Schedule::aero(0.0), (room - 11_500.0) / 480.0),
+        (
+            "substructure x2, forces measured",
+            Schedule::substructure(2, true, 0.0),
+            room / (2.0 * 355.0),
+        ),
+        (
+            "substructure x3, forces measured, two buses",
+            Schedule::substructure(3, true, 0.0).on_buses(2),
+            room / (2.0 * 355.0),
         ),
     ] {
         let max = s.max_sample_rate_hz(BIT_PER_S, bus_load::BUDGET);
         println!("{name}: highest sample rate within 60 % of 1 Mbit/s: {max:.0} Hz");
-        assert!((max - want).abs() < 1e-6, "{name} {max}");
+        assert!((max - want).abs() < 1e-6, "{name} {max} != {want}");
         let at = Schedule {
             sample_rate_hz: max,
             ..s
         };
         assert!((at.load(BIT_PER_S) - bus_load::BUDGET).abs() < 1e-12);
+        assert_eq!(at.check(BIT_PER_S), Ok(()));
+        let beyond = Schedule {
+            sample_rate_hz: max + 1.0,
+            ..s
+        };
+        assert!(beyond.check(BIT_PER_S).is_err(), "{name}");
     }
 }
