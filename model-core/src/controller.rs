@@ -349,6 +349,32 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         Ok(())
     }
 
+    /// Continues the demand of another controller that this one replaces (a change of
+    /// model while idle): each channel given a finite value starts its demand there instead
+    /// of at the safe demand, and moves on from it at the safe ramp rate (in Idle, to the
+    /// safe demand); amplitude limits that do not contain it close in on the configured
+    /// ones at that rate, as after a narrowing swap. Channels given `None` keep the safe
+    /// demand.
+    pub fn continue_demand(&mut self, demand: &[Option<f32>; CH]) {
+        for (((limiter, active), configured), d) in self
+            .limiter
+            .iter_mut()
+            .zip(self.active_limits.iter_mut())
+            .zip(&self.prepared.params.limits)
+            .zip(demand)
+        {
+            if let Some(d) = d.filter(|d| d.is_finite()) {
+                limiter.output = d;
+                *active = DemandLimits {
+                    min: configured.min.min(d),
+                    max: configured.max.max(d),
+                    rate: configured.rate,
+                };
+                self.settling = true;
+            }
+        }
+    }
+
     /// Validates `params` and swaps them in; on error nothing changes.
     pub fn set_params(
         &mut self,

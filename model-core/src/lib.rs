@@ -27,6 +27,7 @@
 
 pub mod aero;
 pub mod biquad;
+pub mod board;
 pub mod controller;
 pub mod element;
 pub mod limits;
@@ -41,6 +42,7 @@ pub use aero::{AeroModel, AeroParams, AeroPrepared, RideHeightMap};
 pub use biquad::{
     BiquadCoefficients, BiquadState, Cascade, CascadeCoefficients, CascadeState, POLE_MARGIN,
 };
+pub use board::{BoardController, BoardParams, BoardPrepared, ModelKind, BOARD_CHANNELS};
 pub use controller::{
     fault, Controller, ControllerParams, Mode, Model, ModelInput, PreparedParams, Status,
     BUMPLESS_FADE_S,

@@ -72,6 +72,10 @@ pub enum Field {
     SubstructureCausality,
     /// A substructure element's nonlinear law ([`crate::element::ElementLaw`]).
     SubstructureElement,
+    /// The board's model kind ([`crate::board::ModelKind`]).
+    ModelKind,
+    /// The board's number of actuator channels.
+    Channels,
     /// Command filter coefficients.
     CommandFilter,
     /// Demand amplitude limits.

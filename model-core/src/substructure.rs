@@ -233,6 +233,39 @@ impl<const CH: usize> SubstructureParams<CH> {
         }
     }
 
+    /// The same substructure serving the first `C2` channels (channels beyond `CH` get no
+    /// couplings, interface DOF 0 and a zero impedance).
+    pub fn first_channels<const C2: usize>(&self) -> SubstructureParams<C2> {
+        let mut out = SubstructureParams::<C2>::zeroed(self.dof, Causality::Impedance);
+        out.causality = self.causality;
+        out.mass = self.mass;
+        out.damping = self.damping;
+        out.stiffness = self.stiffness;
+        out.velocity_cutoff_hz = self.velocity_cutoff_hz;
+        out.element_count = self.element_count;
+        for (to, from) in out.ground_stiffness.iter_mut().zip(&self.ground_stiffness) {
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = *f;
+            }
+        }
+        for (to, from) in out.ground_damping.iter_mut().zip(&self.ground_damping) {
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = *f;
+            }
+        }
+        for (to, from) in out.interface.iter_mut().zip(&self.interface) {
+            *to = *from;
+        }
+        for (to, from) in out.elements.iter_mut().zip(&self.elements) {
+            to.dof_coefficients = from.dof_coefficients;
+            to.law = from.law;
+            for (t, f) in to.road_coefficients.iter_mut().zip(&from.road_coefficients) {
+                *t = *f;
+            }
+        }
+        out
+    }
+
     /// The elements used.
     pub fn used_elements(&self) -> &[SubstructureElement<CH>] {
         self.elements

@@ -1,0 +1,484 @@
+//! The board's controller with its model chosen at run time: the tyre on 1 to
+//! [`BOARD_CHANNELS`] hub channels, the aero model on its front and rear channels, or a
+//! substructure on 1 to [`BOARD_CHANNELS`] channels, all in one image.
+//!
+//! [`BoardParams`] is one fixed-layout parameter set holding every model's parameters, the
+//! [`ModelKind`] that runs and its number of channels, and per-channel filters, limits and
+//! safe state for up to [`BOARD_CHANNELS`] channels. Only the running configuration (its
+//! kind's parameters, its channels) is validated and used: the other kinds' parameters are
+//! kept as written and validated when a configuration selects them.
+//!
+//! [`BoardController`] runs one [`Controller`] of the selected configuration (an enum of the
+//! nine, so its size is the largest one's; no heap). [`BoardController::swap`] installs a new
+//! validated set ([`BoardPrepared`]) between two steps:
+//! - the same kind and channel count: [`Controller::swap_params`], bumpless in any mode;
+//! - another kind or channel count: only in [`Mode::Idle`] (refused in Running and in Fault
+//!   with [`SwapError::NotIdle`], nothing changes); the new controller is Idle and continues
+//!   the demand of every channel both configurations have ([`Controller::continue_demand`]),
+//!   ramping from there to its own safe demand at its safe ramp rate, so a change of model
+//!   never steps the force. The next Start runs the new model from rest.
+//!
+//! Inputs and demands are always [`BOARD_CHANNELS`] wide; the channels beyond the running
+//! configuration's are ignored on input and zero on output.
+
+use crate::aero::{AeroModel, AeroParams};
+use crate::biquad::CascadeCoefficients;
+use crate::controller::{Controller, ControllerParams, Mode, ModelInput, PreparedParams, Status};
+use crate::limits::DemandLimits;
+use crate::params::{Field, ParamError};
+use crate::substructure::{SubstructureModel, SubstructureParams};
+use crate::tyre::{TyreModel, TyreModelParams, TyreParams};
+
+/// Most actuator channels of a board configuration.
+pub const BOARD_CHANNELS: usize = 4;
+
+/// The numerical model the board runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum ModelKind {
+    /// Point-follower tyres, one per hub channel (1 to 4): force demand.
+    Tyre = 0,
+    /// The aerodynamic model: front and rear down-force channels (exactly 2).
+    Aero = 1,
+    /// A substructure (model-core's mass-spring-damper with nonlinear elements), 1 to 4
+    /// channels, any of its causalities.
+    Substructure = 2,
+}
+
+impl ModelKind {
+    /// Every kind, by value.
+    pub const ALL: [ModelKind; 3] = [ModelKind::Tyre, ModelKind::Aero, ModelKind::Substructure];
+
+    /// The kind of selector value `v`.
+    pub fn from_u32(v: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| *k as u32 == v)
+    }
+
+    /// The channel counts the kind runs on (inclusive).
+    pub const fn channel_range(self) -> (u32, u32) {
+        match self {
+            ModelKind::Tyre | ModelKind::Substructure => (1, BOARD_CHANNELS as u32),
+            ModelKind::Aero => (2, 2),
+        }
+    }
+
+    /// Lower-case name, as in the set-up and the A2L.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ModelKind::Tyre => "tyre",
+            ModelKind::Aero => "aero",
+            ModelKind::Substructure => "substructure",
+        }
+    }
+}
+
+/// Every model's parameters and the running configuration: the board's whole parameter set
+/// (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+pub struct BoardParams {
+    /// The running model, a [`ModelKind`] as its `u32` value.
+    pub kind: u32,
+    /// Number of actuator channels, within the kind's [`ModelKind::channel_range`].
+    pub channels: u32,
+    /// The tyre of each hub channel.
+    pub tyre: TyreModelParams<BOARD_CHANNELS>,
+    /// The aero model.
+    pub aero: AeroParams,
+    /// The substructure (its channels beyond `channels` unused).
+    pub substructure: SubstructureParams<BOARD_CHANNELS>,
+    /// Command filter per channel.
+    pub filter: [CascadeCoefficients; BOARD_CHANNELS],
+    /// Demand limits per channel.
+    pub limits: [DemandLimits; BOARD_CHANNELS],
+    /// Safe demand per channel.
+    pub safe_demand: [f32; BOARD_CHANNELS],
+    /// Ramp rate to the safe demand per channel.
+    pub safe_ramp_rate: [f32; BOARD_CHANNELS],
+}
+
+impl BoardParams {
+    /// `channels` tyres `tyre` with the same limits and safe state on every channel, no
+    /// command filter; the aero model at [`AeroParams::PAPER`] and a one-DOF substructure
+    /// of 1 kg on nothing as the other kinds' starting values.
+    pub const fn tyres(
+        tyre: TyreParams,
+        channels: u32,
+        limits: DemandLimits,
+        safe_demand: f32,
+        safe_ramp_rate: f32,
+    ) -> Self {
+        let mut substructure = SubstructureParams::zeroed(1, crate::Causality::Impedance);
+        substructure.mass[0][0] = 1.0;
+        Self {
+            kind: ModelKind::Tyre as u32,
+            channels,
+            tyre: TyreModelParams {
+                tyre: [tyre; BOARD_CHANNELS],
+            },
+            aero: AeroParams::PAPER,
+            substructure,
+            filter: [CascadeCoefficients::IDENTITY; BOARD_CHANNELS],
+            limits: [limits; BOARD_CHANNELS],
+            safe_demand: [safe_demand; BOARD_CHANNELS],
+            safe_ramp_rate: [safe_ramp_rate; BOARD_CHANNELS],
+        }
+    }
+
+    /// The model kind, if the selector is valid.
+    pub fn model_kind(&self) -> Option<ModelKind> {
+        ModelKind::from_u32(self.kind)
+    }
+
+    /// The running configuration's controller parameters with model parameters `model`:
+    /// the first `CH` channels' filters, limits and safe state.
+    fn controller<P, const CH: usize>(&self, model: P) -> ControllerParams<P, CH> {
+        let mut p = ControllerParams {
+            model,
+            filter: [CascadeCoefficients::IDENTITY; CH],
+            limits: [DemandLimits {
+                min: 0.0,
+                max: 0.0,
+                rate: 0.0,
+            }; CH],
+            safe_demand: [0.0; CH],
+            safe_ramp_rate: [0.0; CH],
+        };
+        for (to, from) in p.filter.iter_mut().zip(&self.filter) {
+            *to = *from;
+        }
+        for (to, from) in p.limits.iter_mut().zip(&self.limits) {
+            *to = *from;
+        }
+        for (to, from) in p.safe_demand.iter_mut().zip(&self.safe_demand) {
+            *to = *from;
+        }
+        for (to, from) in p.safe_ramp_rate.iter_mut().zip(&self.safe_ramp_rate) {
+            *to = *from;
+        }
+        p
+    }
+
+    fn tyres_of<const CH: usize>(&self) -> TyreModelParams<CH> {
+        let mut t = TyreModelParams {
+            tyre: [TyreParams::PAPER; CH],
+        };
+        for (to, from) in t.tyre.iter_mut().zip(&self.tyre.tyre) {
+            *to = *from;
+        }
+        t
+    }
+
+    /// Validates the running configuration for sample period `dt` (s) and derives its
+    /// coefficients; on error the field at fault.
+    pub fn prepare(&self, dt: f32) -> Result<BoardPrepared, ParamError> {
+        let kind = self
+            .model_kind()
+            .ok_or(ParamError::OutOfRange(Field::ModelKind))?;
+        let (lo, hi) = kind.channel_range();
+        if !(lo..=hi).contains(&self.channels) {
+            return Err(ParamError::OutOfRange(Field::Channels));
+        }
+        macro_rules! tyre {
+            ($ch:literal, $v:ident) => {
+                Prepared::$v(PreparedParams::new(
+                    &self.controller::<_, $ch>(self.tyres_of::<$ch>()),
+                    dt,
+                )?)
+            };
+        }
+        macro_rules! sub {
+            ($ch:literal, $v:ident) => {
+                Prepared::$v(PreparedParams::new(
+                    &self.controller::<_, $ch>(self.substructure.first_channels::<$ch>()),
+                    dt,
+                )?)
+            };
+        }
+        let prepared = match (kind, self.channels) {
+            (ModelKind::Tyre, 1) => tyre!(1, Tyre1),
+            (ModelKind::Tyre, 2) => tyre!(2, Tyre2),
+            (ModelKind::Tyre, 3) => tyre!(3, Tyre3),
+            (ModelKind::Tyre, _) => tyre!(4, Tyre4),
+            (ModelKind::Aero, _) => Prepared::Aero(PreparedParams::new(
+                &self.controller::<_, 2>(self.aero),
+                dt,
+            )?),
+            (ModelKind::Substructure, 1) => sub!(1, Sub1),
+            (ModelKind::Substructure, 2) => sub!(2, Sub2),
+            (ModelKind::Substructure, 3) => sub!(3, Sub3),
+            (ModelKind::Substructure, _) => sub!(4, Sub4),
+        };
+        Ok(BoardPrepared {
+            params: *self,
+            prepared,
+        })
+    }
+}
+
+/// The running configuration's validated parameters, one variant per kind and channel
+/// count.
+#[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)] // one lives at a time; no heap on the board
+enum Prepared {
+    Tyre1(PreparedParams<TyreModel<1>, 1>),
+    Tyre2(PreparedParams<TyreModel<2>, 2>),
+    Tyre3(PreparedParams<TyreModel<3>, 3>),
+    Tyre4(PreparedParams<TyreModel<4>, 4>),
+    Aero(PreparedParams<AeroModel, 2>),
+    Sub1(PreparedParams<SubstructureModel<1>, 1>),
+    Sub2(PreparedParams<SubstructureModel<2>, 2>),
+    Sub3(PreparedParams<SubstructureModel<3>, 3>),
+    Sub4(PreparedParams<SubstructureModel<4>, 4>),
+}
+
+/// A validated [`BoardParams`] with the running configuration's derived coefficients, ready
+/// to be swapped in.
+#[derive(Clone, Copy, Debug)]
+pub struct BoardPrepared {
+    params: BoardParams,
+    prepared: Prepared,
+}
+
+impl BoardPrepared {
+    /// The parameter set it was prepared from.
+    pub fn params(&self) -> &BoardParams {
+        &self.params
+    }
+}
+
+/// One controller of the running configuration.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)] // one lives at a time; no heap on the board
+enum Running {
+    Tyre1(Controller<TyreModel<1>, 1>),
+    Tyre2(Controller<TyreModel<2>, 2>),
+    Tyre3(Controller<TyreModel<3>, 3>),
+    Tyre4(Controller<TyreModel<4>, 4>),
+    Aero(Controller<AeroModel, 2>),
+    Sub1(Controller<SubstructureModel<1>, 1>),
+    Sub2(Controller<SubstructureModel<2>, 2>),
+    Sub3(Controller<SubstructureModel<3>, 3>),
+    Sub4(Controller<SubstructureModel<4>, 4>),
+}
+
+/// Applies `$body` to the controller `$c` of whichever variant `$running` holds.
+macro_rules! each {
+    ($running:expr, $c:ident => $body:expr) => {
+        match $running {
+            Running::Tyre1($c) => $body,
+            Running::Tyre2($c) => $body,
+            Running::Tyre3($c) => $body,
+            Running::Tyre4($c) => $body,
+            Running::Aero($c) => $body,
+            Running::Sub1($c) => $body,
+            Running::Sub2($c) => $body,
+            Running::Sub3($c) => $body,
+            Running::Sub4($c) => $body,
+        }
+    };
+}
+
+/// Why [`BoardController::swap`] refused a parameter set; nothing changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SwapError {
+    /// The model kind or channel count changes, and the controller is not Idle.
+    NotIdle,
+    /// The set was prepared for another sample period.
+    SamplePeriod,
+}
+
+/// The first `CH` channels of a board-wide array.
+fn first<const CH: usize>(v: &[f32; BOARD_CHANNELS]) -> [f32; CH] {
+    let mut out = [0.0; CH];
+    for (o, x) in out.iter_mut().zip(v) {
+        *o = *x;
+    }
+    out
+}
+
+/// A `CH`-wide array widened to the board's channels (zeros beyond).
+fn widen<const CH: usize>(v: &[f32; CH]) -> [f32; BOARD_CHANNELS] {
+    let mut out = [0.0; BOARD_CHANNELS];
+    for (o, x) in out.iter_mut().zip(v) {
+        *o = *x;
+    }
+    out
+}
+
+/// The board's controller: the running configuration's [`Controller`] (see the module
+/// docs).
+#[derive(Clone, Debug)]
+pub struct BoardController {
+    params: BoardParams,
+    running: Running,
+}
+
+impl BoardController {
+    /// An idle controller of the configuration `prepared`, its demand at the safe demand.
+    pub fn new(prepared: &BoardPrepared) -> Self {
+        let running = match prepared.prepared {
+            Prepared::Tyre1(p) => Running::Tyre1(Controller::new(p)),
+            Prepared::Tyre2(p) => Running::Tyre2(Controller::new(p)),
+            Prepared::Tyre3(p) => Running::Tyre3(Controller::new(p)),
+            Prepared::Tyre4(p) => Running::Tyre4(Controller::new(p)),
+            Prepared::Aero(p) => Running::Aero(Controller::new(p)),
+            Prepared::Sub1(p) => Running::Sub1(Controller::new(p)),
+            Prepared::Sub2(p) => Running::Sub2(Controller::new(p)),
+            Prepared::Sub3(p) => Running::Sub3(Controller::new(p)),
+            Prepared::Sub4(p) => Running::Sub4(Controller::new(p)),
+        };
+        Self {
+            params: prepared.params,
+            running,
+        }
+    }
+
+    /// Validates `params` for `dt` and builds an idle controller.
+    pub fn with_params(params: &BoardParams, dt: f32) -> Result<Self, ParamError> {
+        params.prepare(dt).map(|p| Self::new(&p))
+    }
+
+    /// The running parameter set.
+    pub fn params(&self) -> &BoardParams {
+        &self.params
+    }
+
+    /// The running model kind.
+    pub fn kind(&self) -> ModelKind {
+        match self.running {
+            Running::Tyre1(_) | Running::Tyre2(_) | Running::Tyre3(_) | Running::Tyre4(_) => {
+                ModelKind::Tyre
+            }
+            Running::Aero(_) => ModelKind::Aero,
+            Running::Sub1(_) | Running::Sub2(_) | Running::Sub3(_) | Running::Sub4(_) => {
+                ModelKind::Substructure
+            }
+        }
+    }
+
+    /// The running number of channels.
+    pub fn channels(&self) -> usize {
+        match self.running {
+            Running::Tyre1(_) | Running::Sub1(_) => 1,
+            Running::Tyre2(_) | Running::Aero(_) | Running::Sub2(_) => 2,
+            Running::Tyre3(_) | Running::Sub3(_) => 3,
+            Running::Tyre4(_) | Running::Sub4(_) => 4,
+        }
+    }
+
+    /// The sample period the running set was prepared for (s).
+    pub fn dt(&self) -> f32 {
+        each!(&self.running, c => c.prepared().dt())
+    }
+
+    /// Installs `prepared` between two steps (see the module docs): bumpless for the same
+    /// configuration; another kind or channel count only while Idle, continuing the
+    /// demand. On error nothing changes.
+    pub fn swap(&mut self, prepared: &BoardPrepared) -> Result<(), SwapError> {
+        if prepared_dt(&prepared.prepared).to_bits() != self.dt().to_bits() {
+            return Err(SwapError::SamplePeriod);
+        }
+        let same = match (&mut self.running, prepared.prepared) {
+            (Running::Tyre1(c), Prepared::Tyre1(p)) => c.swap_params(p).is_ok(),
+            (Running::Tyre2(c), Prepared::Tyre2(p)) => c.swap_params(p).is_ok(),
+            (Running::Tyre3(c), Prepared::Tyre3(p)) => c.swap_params(p).is_ok(),
+            (Running::Tyre4(c), Prepared::Tyre4(p)) => c.swap_params(p).is_ok(),
+            (Running::Aero(c), Prepared::Aero(p)) => c.swap_params(p).is_ok(),
+            (Running::Sub1(c), Prepared::Sub1(p)) => c.swap_params(p).is_ok(),
+            (Running::Sub2(c), Prepared::Sub2(p)) => c.swap_params(p).is_ok(),
+            (Running::Sub3(c), Prepared::Sub3(p)) => c.swap_params(p).is_ok(),
+            (Running::Sub4(c), Prepared::Sub4(p)) => c.swap_params(p).is_ok(),
+            _ => false,
+        };
+        if same {
+            self.params = prepared.params;
+            return Ok(());
+        }
+        if self.mode() != Mode::Idle {
+            return Err(SwapError::NotIdle);
+        }
+        let demand = self.demand();
+        let channels = self.channels();
+        let mut next = Self::new(prepared);
+        let mut carried = [None; BOARD_CHANNELS];
+        for (c, d) in carried.iter_mut().zip(demand).take(channels) {
+            *c = Some(d);
+        }
+        each!(&mut next.running, c => c.continue_demand(&first_option(&carried)));
+        *self = next;
+        Ok(())
+    }
+
+    /// Starts the model from Idle; `false` (nothing done) in another mode.
+    pub fn start(&mut self) -> bool {
+        each!(&mut self.running, c => c.start())
+    }
+
+    /// Stops the model (Running → Idle).
+    pub fn stop(&mut self) {
+        each!(&mut self.running, c => c.stop())
+    }
+
+    /// Clears a latched fault (Fault → Idle); `false` if none was latched.
+    pub fn clear_fault(&mut self) -> bool {
+        each!(&mut self.running, c => c.clear_fault())
+    }
+
+    /// Latches a fault from outside (e.g. the communication watchdog).
+    pub fn trip(&mut self, cause: u8) {
+        each!(&mut self.running, c => c.trip(cause))
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        each!(&self.running, c => c.mode())
+    }
+
+    /// Status of the last step.
+    pub fn status(&self) -> Status {
+        each!(&self.running, c => c.status())
+    }
+
+    /// The last demand per board channel (zero beyond the running channels).
+    pub fn demand(&self) -> [f32; BOARD_CHANNELS] {
+        each!(&self.running, c => widen(&c.demand()))
+    }
+
+    /// One control step on the first channels of `input`: the demand per board channel
+    /// (zero beyond the running channels), always finite and inside the limits.
+    pub fn step(&mut self, input: &ModelInput<BOARD_CHANNELS>) -> [f32; BOARD_CHANNELS] {
+        each!(&mut self.running, c => {
+            let narrow = ModelInput {
+                position: first(&input.position),
+                force: first(&input.force),
+                road: first(&input.road),
+                speed: input.speed,
+            };
+            widen(&c.step(&narrow))
+        })
+    }
+}
+
+fn prepared_dt(p: &Prepared) -> f32 {
+    match p {
+        Prepared::Tyre1(p) => p.dt(),
+        Prepared::Tyre2(p) => p.dt(),
+        Prepared::Tyre3(p) => p.dt(),
+        Prepared::Tyre4(p) => p.dt(),
+        Prepared::Aero(p) => p.dt(),
+        Prepared::Sub1(p) => p.dt(),
+        Prepared::Sub2(p) => p.dt(),
+        Prepared::Sub3(p) => p.dt(),
+        Prepared::Sub4(p) => p.dt(),
+    }
+}
+
+/// The first `CH` entries of a board-wide array of options.
+fn first_option<const CH: usize>(v: &[Option<f32>; BOARD_CHANNELS]) -> [Option<f32>; CH] {
+    let mut out = [None; CH];
+    for (o, x) in out.iter_mut().zip(v) {
+        *o = *x;
+    }
+    out
+}
