@@ -40,6 +40,14 @@ use crate::MAX_SECTIONS;
 /// coefficients can cause, so an accepted filter stays stable as stored.
 pub const POLE_MARGIN: f32 = 1.0e-6;
 
+/// Allowed range of the delta-form feed-forward coefficients β (dimensionless): a section's
+/// gain is bounded by the β's, so this bounds it at about 60 dB.
+pub const FILTER_BETA: crate::params::Range = crate::params::Range::new(-1.0e3, 1.0e3);
+/// Allowed range of the delta-form feedback coefficients α (dimensionless): a stable
+/// section has `α1 = (1 − p1) + (1 − p2)` and `α2 = (1 − p1)(1 − p2)` in `(0, 4)`; stability
+/// itself is checked on the whole set.
+pub const FILTER_ALPHA: crate::params::Range = crate::params::Range::new(0.0, 4.0);
+
 /// Coefficients of one second-order section in delta-operator form (see the module docs).
 ///
 /// Dimensionless; the filter's input and output share a unit.

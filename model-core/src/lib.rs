@@ -32,6 +32,7 @@ pub mod controller;
 pub mod element;
 pub mod limits;
 pub mod linalg;
+pub mod page;
 pub mod params;
 pub mod state_space;
 pub mod substructure;
