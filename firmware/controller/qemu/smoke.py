@@ -310,7 +310,7 @@ def run(link, samples):
     period = (time.monotonic() - t_quiet) / len(ramp)
     print(f"     tick period seen from the host: {period * 1000:.0f} ms", flush=True)
     # A status frame shows COMM_TIMEOUT (one per 200 ticks: set K = 5 to see one soon).
-    link.send(command(4, 100, f32_bits(5.0)))
+    link.send(command(4, 0, f32_bits(5.0)))  # parameter 0: the status period
     check(link.frame(ACK) is not None, "status period K = 5 acknowledged")
     n_status = len(link.statuses)
     while len(link.statuses) == n_status:

@@ -14,13 +14,13 @@ XCP port). The test
    the seed & key function (key = HMAC-SHA256(secret, [resource] + seed)[:6]);
 3. unlocks with a wrong key: ERR_ACCESS_LOCKED and the slave disconnects (no answer to
    GET_STATUS); connects and unlocks again;
-4. reads the calibration page (UPLOAD at the A2L addresses), writes `tyre_stiffness` and
-   `tyre_damping` (SET_MTA + 4-byte DOWNLOAD), reads them back and sees the new stiffness in
+4. reads the calibration page (UPLOAD at the A2L addresses), writes `tyre_stiffness_0` and
+   `tyre_damping_0` (SET_MTA + 4-byte DOWNLOAD), reads them back and sees the new stiffness in
    the demands on USART1 (position -1 mm, road 0: demand = F0 + k_t * 1 mm), switching at a
    step boundary; then a 12-byte block download through pyxcp's `push` (master block mode)
    and an 8-byte one, which pyxcp 0.29 ends with DOWNLOAD instead of DOWNLOAD_NEXT
    (ERR_SEQUENCE, nothing written);
-5. refused writes (NaN, above the A2L maximum, demand_min above demand_max, outside the
+5. refused writes (NaN, above the A2L maximum, limits_demand_min_0 above limits_demand_max_0, outside the
    calibration page) answer the expected XCP error, change neither the page nor the demands,
    and `calibration_last_rejection` shows the reason code;
 6. pages: GET_CAL_PAGE, SET_CAL_PAGE ECU -> reference page (the defaults run), XCP access to
@@ -460,7 +460,7 @@ def main():
 
     a2l = parse_a2l(args.a2l)
     chars, meas = a2l["characteristics"], a2l["measurements"]
-    need_c = ["tyre_stiffness", "tyre_damping", "tyre_static_load", "demand_min", "demand_max"]
+    need_c = ["tyre_stiffness_0", "tyre_damping_0", "tyre_static_load_0", "limits_demand_min_0", "limits_demand_max_0"]
     need_m = ["position", "demand", "steps", "mode", "calibration_changes", "calibration_last_rejection", "daq_dropped"]
     check(
         "calibration" in a2l["segments"] and all(n in chars for n in need_c) and all(n in meas for n in need_m),
@@ -699,10 +699,10 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
             outside.append((name, v))
     check(not outside, f"all {len(values)} parameters inside their A2L limits" + (f"; outside: {outside}" if outside else ""))
     defaults = dict(values)
-    check(values["tyre_stiffness"] == 2.5e5 and values["tyre_damping"] == 500.0
-          and values["demand_min"] == -1000.0 and values["demand_max"] == 12000.0,
-          f"defaults: tyre_stiffness {values['tyre_stiffness']:g} N/m, tyre_damping {values['tyre_damping']:g} N s/m, "
-          f"demand limits {values['demand_min']:g}..{values['demand_max']:g} N")
+    check(values["tyre_stiffness_0"] == 2.5e5 and values["tyre_damping_0"] == 500.0
+          and values["limits_demand_min_0"] == -1000.0 and values["limits_demand_max_0"] == 12000.0,
+          f"defaults: tyre_stiffness_0 {values['tyre_stiffness_0']:g} N/m, tyre_damping_0 {values['tyre_damping_0']:g} N s/m, "
+          f"demand limits {values['limits_demand_min_0']:g}..{values['limits_demand_max_0']:g} N")
     x.setMta(meas["mode"]["address"])
     mode = struct.unpack("<I", bytes(x.upload(4)))[0]
     steps = read_u32("steps")
@@ -711,44 +711,44 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
     lock.shape = lambda step: (HOLD_POSITION, 0.0)
     lock.wait_steps(5)
     base = lock.settle()
-    k0 = values["tyre_stiffness"]
-    expect = demand_counts(values["tyre_static_load"] + k0 * 1e-3)
+    k0 = values["tyre_stiffness_0"]
+    expect = demand_counts(values["tyre_static_load_0"] + k0 * 1e-3)
     check(abs(base - expect) <= 1, f"position -1 mm, road 0: demand {counts(base)} (F0 + k_t x 1 mm = {counts(expect)})")
     changes0 = read_u32("calibration_changes")
 
     i0 = len(lock.records)
-    code, t0, t1 = download(chars["tyre_stiffness"]["address"], f32_bytes(NEW_STIFFNESS))
-    check(code is None, f"DOWNLOAD tyre_stiffness = {NEW_STIFFNESS:g} N/m: {err_name(code)}")
+    code, t0, t1 = download(chars["tyre_stiffness_0"]["address"], f32_bytes(NEW_STIFFNESS))
+    check(code is None, f"DOWNLOAD tyre_stiffness_0 = {NEW_STIFFNESS:g} N/m: {err_name(code)}")
     new = base + round((NEW_STIFFNESS - k0) * 1e-3 * 10)
     lock.wait_steps(3)
     after = lock.settle()
     check(abs(after - new) <= 1, f"new stiffness runs: demand {counts(after)}, expected {counts(new)} "
           f"(+ dk x 1 mm = {(NEW_STIFFNESS - k0) * 1e-3:.1f} N)")
-    check_switch(lock, i0 - 5, t0, t1, base, after, "tyre_stiffness write")
-    code, _, _ = download(chars["tyre_damping"]["address"], f32_bytes(NEW_DAMPING))
-    check(code is None, f"DOWNLOAD tyre_damping = {NEW_DAMPING:g} N s/m: {err_name(code)}")
-    k_back, c_back = read_f32("tyre_stiffness"), read_f32("tyre_damping")
+    check_switch(lock, i0 - 5, t0, t1, base, after, "tyre_stiffness_0 write")
+    code, _, _ = download(chars["tyre_damping_0"]["address"], f32_bytes(NEW_DAMPING))
+    check(code is None, f"DOWNLOAD tyre_damping_0 = {NEW_DAMPING:g} N s/m: {err_name(code)}")
+    k_back, c_back = read_f32("tyre_stiffness_0"), read_f32("tyre_damping_0")
     check(k_back == NEW_STIFFNESS and c_back == NEW_DAMPING,
-          f"read back: tyre_stiffness {k_back:g}, tyre_damping {c_back:g}")
+          f"read back: tyre_stiffness_0 {k_back:g}, tyre_damping_0 {c_back:g}")
     changes = read_u32("calibration_changes")
     check(changes == changes0 + 2, f"calibration_changes {changes0} -> {changes} (2 writes)")
     # pyxcp's block download (`Master.push`, master block mode): 12 bytes = DOWNLOAD(6) +
     # DOWNLOAD_NEXT(6). An 8-byte block shows pyxcp's known quirk: its last packet goes out as
     # DOWNLOAD instead of DOWNLOAD_NEXT, which the slave refuses with ERR_SEQUENCE (nothing
     # written).
-    f0 = values["tyre_static_load"]
+    f0 = values["tyre_static_load_0"]
     block = f32_bytes(NEW_STIFFNESS) + f32_bytes(BLOCK_DAMPING) + f32_bytes(f0)
-    code, _ = xcp_error(x.push, chars["tyre_stiffness"]["address"], 0, block)
-    check(code is None, f"block DOWNLOAD (pyxcp push, 12 bytes: tyre_stiffness, tyre_damping {BLOCK_DAMPING:g}, "
-          f"tyre_static_load): {err_name(code)}")
-    c_back = read_f32("tyre_damping")
-    check(c_back == BLOCK_DAMPING and read_f32("tyre_stiffness") == NEW_STIFFNESS and read_f32("tyre_static_load") == f0,
-          f"read back: tyre_damping {c_back:g}, stiffness and static load as before")
-    code, _ = xcp_error(x.push, chars["tyre_damping"]["address"], 0, f32_bytes(NEW_DAMPING) + f32_bytes(f0))
-    c_back = read_f32("tyre_damping")
+    code, _ = xcp_error(x.push, chars["tyre_stiffness_0"]["address"], 0, block)
+    check(code is None, f"block DOWNLOAD (pyxcp push, 12 bytes: tyre_stiffness_0, tyre_damping_0 {BLOCK_DAMPING:g}, "
+          f"tyre_static_load_0): {err_name(code)}")
+    c_back = read_f32("tyre_damping_0")
+    check(c_back == BLOCK_DAMPING and read_f32("tyre_stiffness_0") == NEW_STIFFNESS and read_f32("tyre_static_load_0") == f0,
+          f"read back: tyre_damping_0 {c_back:g}, stiffness and static load as before")
+    code, _ = xcp_error(x.push, chars["tyre_damping_0"]["address"], 0, f32_bytes(NEW_DAMPING) + f32_bytes(f0))
+    c_back = read_f32("tyre_damping_0")
     check(code == ERR_SEQUENCE and c_back == BLOCK_DAMPING,
           f"8-byte block (pyxcp sends its last packet as DOWNLOAD): {err_name(code)}, expected ERR_SEQUENCE; "
-          f"tyre_damping still {c_back:g}")
+          f"tyre_damping_0 still {c_back:g}")
     changes = read_u32("calibration_changes")
     check(changes == changes0 + 3, f"calibration_changes {changes0} -> {changes} (3 writes)")
     lock.alive()
@@ -757,14 +757,14 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
     current = lock.settle()
     i0 = len(lock.records)
     t_begin = time.monotonic()
-    kmax = chars["tyre_stiffness"]["max"]
+    kmax = chars["tyre_stiffness_0"]["max"]
     refusals = [
-        ("NaN into tyre_stiffness", "tyre_stiffness", chars["tyre_stiffness"]["address"], f32_bytes(float("nan")),
+        ("NaN into tyre_stiffness_0", "tyre_stiffness_0", chars["tyre_stiffness_0"]["address"], f32_bytes(float("nan")),
          ERR_OUT_OF_RANGE, NOT_FINITE),
-        (f"tyre_stiffness {2 * kmax:g} (A2L max {kmax:g})", "tyre_stiffness", chars["tyre_stiffness"]["address"],
+        (f"tyre_stiffness_0 {2 * kmax:g} (A2L max {kmax:g})", "tyre_stiffness_0", chars["tyre_stiffness_0"]["address"],
          f32_bytes(2 * kmax), ERR_OUT_OF_RANGE, OUT_OF_RANGE),
-        (f"demand_min {values['demand_max'] + 1000:g} above demand_max {values['demand_max']:g}", "demand_min",
-         chars["demand_min"]["address"], f32_bytes(values["demand_max"] + 1000), ERR_GENERIC, INCONSISTENT),
+        (f"limits_demand_min_0 {values['limits_demand_max_0'] + 1000:g} above limits_demand_max_0 {values['limits_demand_max_0']:g}", "limits_demand_min_0",
+         chars["limits_demand_min_0"]["address"], f32_bytes(values["limits_demand_max_0"] + 1000), ERR_GENERIC, INCONSISTENT),
         (f"4 bytes at 0x{cal_start + cal_len:08X} (just past the calibration page)", None, cal_start + cal_len,
          f32_bytes(1.0), ERR_ACCESS_DENIED, None),
         (f"4 bytes at 0x{cal_start + cal_len - 2:08X} (across the page's end)", None, cal_start + cal_len - 2,
@@ -808,14 +808,14 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
     check_switch(lock, i0 - 5, t0, t1, running, base, "ECU on the reference page (defaults)")
     ecu, xcp_page = x.getCalPage(0x01, 0), x.getCalPage(0x02, 0)
     check(ecu == 1 and xcp_page == 0, f"GET_CAL_PAGE: ECU page {ecu}, XCP page {xcp_page}")
-    k_work = read_f32("tyre_stiffness")
-    check(k_work == NEW_STIFFNESS, f"XCP page 0 still holds tyre_stiffness {k_work:g}")
+    k_work = read_f32("tyre_stiffness_0")
+    check(k_work == NEW_STIFFNESS, f"XCP page 0 still holds tyre_stiffness_0 {k_work:g}")
     code, _ = xcp_error(x.setCalPage, 0x02, 0, 1)
     check(code is None, f"SET_CAL_PAGE XCP -> page 1: {err_name(code)}")
-    k_ref, c_ref = read_f32("tyre_stiffness"), read_f32("tyre_damping")
-    check(k_ref == defaults["tyre_stiffness"] and c_ref == defaults["tyre_damping"],
-          f"XCP page 1 reads the defaults: tyre_stiffness {k_ref:g}, tyre_damping {c_ref:g}")
-    code, _, _ = download(chars["tyre_stiffness"]["address"], f32_bytes(NEW_STIFFNESS))
+    k_ref, c_ref = read_f32("tyre_stiffness_0"), read_f32("tyre_damping_0")
+    check(k_ref == defaults["tyre_stiffness_0"] and c_ref == defaults["tyre_damping_0"],
+          f"XCP page 1 reads the defaults: tyre_stiffness_0 {k_ref:g}, tyre_damping_0 {c_ref:g}")
+    code, _, _ = download(chars["tyre_stiffness_0"]["address"], f32_bytes(NEW_STIFFNESS))
     check(code == ERR_WRITE_PROTECTED, f"DOWNLOAD into the reference page: {err_name(code)}, expected ERR_WRITE_PROTECTED")
     i0 = len(lock.records)
     t0 = time.monotonic()
@@ -824,9 +824,9 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
     check(code is None, f"SET_CAL_PAGE ECU + XCP (all segments) -> page 0: {err_name(code)}")
     check_switch(lock, i0 - 5, t0, t1, base, running, "ECU back on the working page (written value)")
     ecu, xcp_page = x.getCalPage(0x01, 0), x.getCalPage(0x02, 0)
-    k_work = read_f32("tyre_stiffness")
+    k_work = read_f32("tyre_stiffness_0")
     check(ecu == 0 and xcp_page == 0 and k_work == NEW_STIFFNESS,
-          f"GET_CAL_PAGE: ECU page {ecu}, XCP page {xcp_page}; tyre_stiffness {k_work:g}")
+          f"GET_CAL_PAGE: ECU page {ecu}, XCP page {xcp_page}; tyre_stiffness_0 {k_work:g}")
     i0 = len(lock.records)
     t0 = time.monotonic()
     code, _ = xcp_error(x.copyCalPage, 0, 1, 0, 0)

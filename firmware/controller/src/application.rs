@@ -3,11 +3,14 @@
 //! [`crate::link`] for the frames), no heap, no panics; it runs unchanged in host tests.
 //!
 //! # One sample
-//! A valid measurement (channel 0, decoded without error) feeds the watchdog, updates the
-//! missed/late counters from its counter, runs one [`Controller::step`] on the latest
-//! position, road, force and speed, and returns the demand to transmit (and, every K-th
-//! step, a status report). MeasurementAux frames only update force and speed for the next
-//! step.
+//! A sample is one Measurement frame per running channel with the same counter. Each valid
+//! measurement (a running channel's, decoded without error) feeds the watchdog and stores
+//! its position and road; the one that completes the sample (every running channel seen
+//! with that counter) updates the missed/late counters, runs one controller step on the
+//! latest position, road, force and speed of every channel, and returns the demands to
+//! transmit, one per running channel (and, every K-th step, a status report). A sample
+//! left incomplete when the next counter arrives is counted late and not stepped.
+//! MeasurementAux frames only update force and speed for the next step.
 //!
 //! # The communication watchdog
 //! A periodic tick (the board: every sample period; QEMU: see [`crate::config::QEMU_TICK_US`])
@@ -23,8 +26,8 @@
 use model_core::{Mode, ModelInput, ParamError};
 
 use crate::config::{
-    default_params, Controller, Params, Prepared, CHANNELS, DT, STATUS_PERIOD_SAMPLES,
-    WATCHDOG_OFF, WATCHDOG_SAMPLES,
+    default_params, Controller, Params, Prepared, CHANNELS, DT, SAMPLE_RATE_HZ,
+    STATUS_PERIOD_SAMPLES, WATCHDOG_OFF, WATCHDOG_SAMPLES,
 };
 use crate::params::code;
 
@@ -47,7 +50,7 @@ pub mod fault {
 /// A decoded measurement frame (the sample clock of the loop).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Measurement {
-    /// Actuator channel (this firmware serves channel 0 only).
+    /// Actuator channel (one of the running configuration's).
     pub channel: u8,
     /// Measured hub position (m, up positive).
     pub position_m: f32,
@@ -95,8 +98,11 @@ pub enum Command {
 /// The demand of one step, to be transmitted.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Demand {
-    /// Force demand per channel (N): always finite and inside the demand limits.
+    /// Force demand per channel (N): always finite and inside the demand limits; zero
+    /// beyond [`Demand::channels`].
     pub force_n: [f32; CHANNELS],
+    /// Channels running: a demand frame each.
+    pub channels: u8,
     /// The counter of the measurement that produced it; steps of the watchdog tick count on
     /// from the last one.
     pub counter: u32,
@@ -163,11 +169,13 @@ pub struct Output {
     pub status: Option<StatusReport>,
 }
 
-/// Why a decoded frame was ignored.
+/// Why a decoded frame did not step the controller.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Ignored {
-    /// A channel this firmware does not serve: counted as malformed.
+    /// A channel the running configuration does not have: counted as malformed.
     Channel,
+    /// Stored: the sample's other channels are still to come.
+    Waiting,
 }
 
 /// The communication watchdog (see the module docs).
@@ -217,6 +225,12 @@ pub struct Application {
     rate_limited: u8,
     counters: Counters,
     calibration_source: crate::calibration::Source,
+    sample_rate_hz: u16,
+    /// Channels seen of the sample being gathered (bit per channel), and its counter.
+    gathered: u8,
+    gathering: Option<u32>,
+    /// Watchdog ticks that had passed when the sample's first frame came.
+    gathering_ticks: u32,
 }
 
 impl Application {
@@ -224,6 +238,7 @@ impl Application {
     /// `counter_modulus` is the wrap of the measurement counter (e.g. 256 for a `u8`).
     /// Fails only if the defaults were invalid, which a unit test rules out.
     pub fn new(counter_modulus: u32) -> Result<Self, ParamError> {
+        crate::calibration::init_reference();
         let controller = Controller::with_params(&default_params(), DT)?;
         Ok(Self {
             controller,
@@ -238,7 +253,21 @@ impl Application {
             rate_limited: 0,
             counters: Counters::default(),
             calibration_source: crate::calibration::Source::Defaults,
+            sample_rate_hz: SAMPLE_RATE_HZ as u16,
+            gathered: 0,
+            gathering: None,
+            gathering_ticks: 0,
         })
+    }
+
+    /// The running number of channels.
+    pub fn channels(&self) -> usize {
+        self.controller.channels()
+    }
+
+    /// The running sample rate (Hz).
+    pub fn sample_rate_hz(&self) -> u16 {
+        self.sample_rate_hz
     }
 
     /// The input of the last step (channel values as measured).
@@ -297,6 +326,7 @@ impl Application {
             &crate::calibration::Settings {
                 status_period: self.status_period,
                 watchdog: self.watchdog.limit,
+                sample_rate_hz: self.sample_rate_hz,
             },
         );
     }
@@ -356,7 +386,7 @@ impl Application {
 
     /// An auxiliary measurement: stores force and speed for the next step.
     pub fn on_aux(&mut self, aux: &MeasurementAux) -> Result<(), Ignored> {
-        if usize::from(aux.channel) >= CHANNELS {
+        if usize::from(aux.channel) >= self.channels() {
             self.count_malformed();
             return Err(Ignored::Channel);
         }
@@ -367,15 +397,17 @@ impl Application {
         Ok(())
     }
 
-    /// A measurement: one controller step. Returns the frames to transmit.
+    /// A measurement: stored; the one that completes its sample steps the controller (see
+    /// the module docs). Returns the frames to transmit, or why there are none.
     pub fn on_measurement(&mut self, m: &Measurement) -> Result<Output, Ignored> {
         let ch = usize::from(m.channel);
-        if ch >= CHANNELS {
+        let channels = self.channels();
+        if ch >= channels {
             self.count_malformed();
             return Err(Ignored::Channel);
         }
         self.counters.measurements = self.counters.measurements.wrapping_add(1);
-        self.track_counter(m.counter % self.counter_modulus);
+        let silent = self.watchdog.silent_ticks;
         self.watchdog.silent_ticks = 0;
         self.watchdog.seen = true;
         if let Some(x) = self.input.position.get_mut(ch) {
@@ -384,12 +416,33 @@ impl Application {
         if let Some(z) = self.input.road.get_mut(ch) {
             *z = m.road_m;
         }
+        let counter = m.counter % self.counter_modulus;
+        if self.gathering != Some(counter) {
+            if self.gathered != 0 {
+                // The previous sample never completed: its demand never left.
+                self.counters.late = self.counters.late.wrapping_add(1);
+            }
+            self.gathering = Some(counter);
+            self.gathered = 0;
+            self.gathering_ticks = silent;
+        }
+        self.gathered |= 1u8.checked_shl(m.channel.into()).unwrap_or(0);
+        let all = 1u8
+            .checked_shl(channels as u32)
+            .map_or(u8::MAX, |b| b.wrapping_sub(1));
+        if self.gathered != all {
+            return Err(Ignored::Waiting);
+        }
+        self.gathered = 0;
+        self.gathering = None;
+        self.track_counter(counter, self.gathering_ticks);
         self.demand_counter = m.counter;
         Ok(self.step())
     }
 
-    /// Updates the missed and late counters from the measurement counter and the ticks.
-    fn track_counter(&mut self, counter: u32) {
+    /// Updates the missed and late counters from the measurement counter and the watchdog
+    /// ticks `silent` that had passed before the sample came.
+    fn track_counter(&mut self, counter: u32, silent: u32) {
         if let Some(prev) = self.last_counter {
             let jump = counter
                 .wrapping_add(self.counter_modulus)
@@ -400,7 +453,7 @@ impl Application {
                 self.counters.late = self.counters.late.wrapping_add(1);
             } else {
                 self.counters.missed = self.counters.missed.wrapping_add(jump - 1);
-                if self.watchdog.silent_ticks > jump.saturating_add(1) {
+                if silent > jump.saturating_add(1) {
                     self.counters.late = self.counters.late.wrapping_add(1);
                 }
             }
@@ -450,6 +503,7 @@ impl Application {
         Output {
             demand: Demand {
                 force_n,
+                channels: self.channels() as u8,
                 counter: self.demand_counter,
                 mode: s.mode,
                 fault_latched: s.mode == Mode::Fault,
@@ -523,25 +577,35 @@ impl Application {
     }
 
     /// Installs a validated page between two steps, as one transaction: the controller
-    /// parameters and both settings change together, or (CommandAck code) nothing does.
-    /// Refused: a watchdog switched off (QEMU build, until reset) given another limit. The
-    /// caller counts a refusal where it counts ([`Counters::rejected`] counts Command frames).
+    /// parameters and the settings change together, or (CommandAck code) nothing does.
+    /// Refused: another model kind, channel count or sample rate while the controller is not
+    /// Idle ([`code::WRONG_MODE`]; the running model carries on); a watchdog switched off
+    /// (QEMU build, until reset) given another limit. The caller counts a refusal where it
+    /// counts ([`Counters::rejected`] counts Command frames).
     pub fn install(&mut self, prepared: Prepared, settings: crate::calibration::Settings) -> u8 {
         // Everything that can refuse is checked before anything changes.
         if self.watchdog.is_off() && settings.watchdog != WATCHDOG_OFF {
             return code::WRONG_MODE;
         }
-        match self.controller.swap_params(prepared) {
+        match self.controller.swap(&prepared) {
             Ok(()) => {
                 self.status_period = settings.status_period;
                 self.watchdog.limit = settings.watchdog;
-                if let Some(&safe) = self.params().safe_demand.first() {
-                    crate::calibration::SAFE_DEMAND
-                        .store(safe.to_bits(), core::sync::atomic::Ordering::Relaxed);
+                self.sample_rate_hz = settings.sample_rate_hz;
+                self.gathered = 0;
+                self.gathering = None;
+                use core::sync::atomic::Ordering::Relaxed;
+                for (w, safe) in crate::calibration::SAFE_DEMAND
+                    .iter()
+                    .zip(self.params().safe_demand)
+                {
+                    w.store(safe.to_bits(), Relaxed);
                 }
+                crate::calibration::RUNNING_CHANNELS.store(self.channels() as u32, Relaxed);
                 code::OK
             }
-            Err(e) => crate::params::error_code(&e),
+            // Another model, channel count or sample rate while not Idle.
+            Err(model_core::board::SwapError::NotIdle) => code::WRONG_MODE,
         }
     }
 }
@@ -716,9 +780,9 @@ mod tests {
     fn watchdog_off_counts_nothing_and_stays_off() {
         let _turn = crate::calibration::test_lock();
         let mut t = commanded(app());
-        // Only the QEMU build accepts parameter 101 = 0; the board build refuses it.
+        // Only the QEMU build accepts the watchdog limit 0; the board build refuses it.
         let off = Command::SetParam {
-            index: 101,
+            index: crate::calibration::SLOT_WATCHDOG as u16,
             value: 0.0,
         };
         if cfg!(feature = "qemu") {
@@ -747,7 +811,7 @@ mod tests {
         let rejected = a.counters().rejected;
         if cfg!(feature = "qemu") {
             let on = Command::SetParam {
-                index: 101,
+                index: crate::calibration::SLOT_WATCHDOG as u16,
                 value: 10.0,
             };
             assert_eq!(t.command_frame(&on, true), code::WRONG_MODE);
@@ -757,7 +821,7 @@ mod tests {
             assert_eq!(t.app_mut().counters().rejected, rejected + 2);
             // Other settings still work.
             let k = Command::SetParam {
-                index: 100,
+                index: crate::calibration::SLOT_STATUS_PERIOD as u16,
                 value: 5.0,
             };
             assert_eq!(t.command_frame(&k, false), code::OK);
@@ -781,31 +845,32 @@ mod tests {
         );
         assert_eq!(t.app_mut().watchdog().limit, 4);
         let k = Command::SetParam {
-            index: 100,
+            index: crate::calibration::SLOT_STATUS_PERIOD as u16,
             value: 5.0,
         };
         assert_eq!(send(&mut t, k), code::OK);
         assert_eq!(t.app_mut().status_period(), 5);
         let n = Command::SetParam {
-            index: 101,
+            index: crate::calibration::SLOT_WATCHDOG as u16,
             value: 7.0,
         };
         assert_eq!(send(&mut t, n), code::OK);
         assert_eq!(t.app_mut().watchdog().limit, 7);
         // Controller parameters: validated as a whole page, installed.
+        let slot = |name: &str| crate::calibration::slot_named(name).expect("an item") as u16;
         let stiffness = Command::SetParam {
-            index: 0,
+            index: slot("tyre_stiffness_0"),
             value: 3.0e5,
         };
         assert_eq!(send(&mut t, stiffness), code::OK);
-        assert_eq!(t.app_mut().params().model.tyre[0].stiffness, 3.0e5);
+        assert_eq!(t.app_mut().params().tyre.tyre[0].stiffness, 3.0e5);
         let before = (*t.app_mut().params(), crate::calibration::working_words());
         let rejected = t.app_mut().counters().rejected;
         for (index, value, want) in [
-            (1, f32::NAN, code::NOT_FINITE),
-            (8, 1.0e5, code::OUT_OF_RANGE),
-            (200, 1.0, code::UNKNOWN_INDEX),
-            (5, 20_000.0, code::INCONSISTENT),
+            (slot("tyre_damping_0"), f32::NAN, code::NOT_FINITE),
+            (slot("tyre_damping_0"), 1.0e7, code::OUT_OF_RANGE),
+            (crate::calibration::SLOTS as u16, 1.0, code::UNKNOWN_INDEX),
+            (slot("limits_demand_min_0"), 20_000.0, code::INCONSISTENT),
         ] {
             assert_eq!(
                 send(&mut t, Command::SetParam { index, value }),

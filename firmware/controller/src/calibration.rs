@@ -2,21 +2,26 @@
 //! `mil param`) reads and writes, by address, and what the A2L file describes.
 //!
 //! # Calibration page
-//! [`SLOTS`] little-endian 4-byte slots; slot `s` holds the parameter of Command-frame index
-//! [`CalItem::index`] ([`crate::params`]): the 31 controller parameters (indices 0–30) as
-//! `f32`, then the status period K and the watchdog limit N (indices 100, 101) as `f32`
-//! holding integers. Two pages share the addresses:
+//! [`SLOTS`] little-endian 4-byte slots, each an `f32`; slot `s` is Command-frame parameter
+//! index `s` ([`crate::params`]; the frame's 8-bit index reaches slots 0–255, the rest
+//! through XCP): the status period K, the watchdog limit N and the sample rate, then
+//! model-core's board page ([`model_core::page`]: the model kind and channel count, every
+//! model's parameters, per-channel filters, limits and safe state; counts as integral
+//! values). Two pages share the addresses:
 //! - the **working page** (XCP page 0): [`WORKING`], in RAM, written only with a change that
 //!   [`validate_write`] accepted (by `xcp::Target`, the one calibration authority, for XCP
 //!   and Command frames alike); at start it holds the running values ([`mirror`]);
 //! - the **reference page** (XCP page 1, read-only): [`REFERENCE`], the build's defaults
-//!   ([`crate::config`]), in flash.
+//!   ([`crate::config`]), copied into RAM at start.
 //!
 //! A write (any byte range inside the page, e.g. one XCP DOWNLOAD or a whole block) is
 //! applied to a copy of the working page; every touched slot must decode to a value within
 //! its [`CalItem`] limits (finite; integral where the item is a count or a switch), and the
-//! whole resulting controller parameter set must pass `PreparedParams::new` (filter
-//! stability, minimum below maximum, ...). Only then is it handed on (the caller installs the
+//! whole resulting controller parameter set must pass model-core's `BoardParams::prepare`
+//! at the page's sample rate (filter stability, minimum below maximum, ...), and the
+//! configuration must fit the bus budget (`mil_frames::bus_load`). A change of model kind,
+//! channel count or sample rate is accepted only while the controller is Idle
+//! ([`code::WRONG_MODE`] otherwise). Only then is it handed on (the caller installs the
 //! prepared set between two control steps when the controller runs the working page, and
 //! stores the words into [`WORKING`]); a rejected write changes nothing and returns the
 //! CommandAck code of its reason ([`params::code`]). The controller always runs one of the
@@ -32,239 +37,56 @@
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use model_core::controller::SAFE_RAMP_RATE;
-use model_core::{limits, tyre, velocity, ParamError, Range, MAX_SECTIONS};
+use mil_frames::bus_load::Schedule;
+use model_core::board::BOARD_CHANNELS;
+use model_core::page::{self, WordError, WORDS};
+pub use model_core::page::{ParamInfo as CalItem, WordKind as Kind};
+use model_core::{limits, ModelKind};
 
 use crate::config::{
-    default_params, Params, Prepared, DT, STATUS_PERIOD_RANGE, STATUS_PERIOD_SAMPLES,
-    WATCHDOG_OFF_ALLOWED, WATCHDOG_SAMPLES, WATCHDOG_SAMPLES_RANGE,
+    default_params, Params, Prepared, SAMPLE_RATE_HZ, SAMPLE_RATE_RANGE, STATUS_PERIOD_RANGE,
+    STATUS_PERIOD_SAMPLES, WATCHDOG_OFF_ALLOWED, WATCHDOG_SAMPLES, WATCHDOG_SAMPLES_RANGE,
 };
-use crate::params::{self, code, INDEX_STATUS_PERIOD, INDEX_WATCHDOG};
+use crate::params::{self, code};
 
-/// Number of 4-byte slots of the calibration page.
-pub const SLOTS: usize = 33;
+/// Number of 4-byte slots of the calibration page: three settings, then model-core's board
+/// page ([`model_core::page`], the controller's whole parameter set).
+pub const SLOTS: usize = SETTINGS_SLOTS + WORDS;
 /// Size of the calibration page (bytes).
 pub const PAGE_BYTES: usize = 4 * SLOTS;
+/// Slots before the board page: the settings.
+pub const SETTINGS_SLOTS: usize = 3;
 /// Slot of the status period K.
-pub const SLOT_STATUS_PERIOD: usize = 31;
+pub const SLOT_STATUS_PERIOD: usize = 0;
 /// Slot of the watchdog limit N.
-pub const SLOT_WATCHDOG: usize = 32;
+pub const SLOT_WATCHDOG: usize = 1;
+/// Slot of the sample rate (changed only while Idle).
+pub const SLOT_SAMPLE_RATE: usize = 2;
+/// Slot of the model kind (changed only while Idle): the board page's first word.
+pub const SLOT_MODEL_KIND: usize = SETTINGS_SLOTS;
+/// Slot of the channel count (changed only while Idle).
+pub const SLOT_CHANNELS: usize = SETTINGS_SLOTS + 1;
 
-/// How a slot's `f32` is read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// A real value within the limits.
-    Real,
-    /// An integer within the limits (a count).
-    Integer,
-    /// 0 or 1.
-    Switch,
-}
-
-/// One calibration parameter: what the A2L file says of it and what a write must satisfy.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CalItem {
-    /// A2L name (an identifier).
-    pub name: &'static str,
-    /// A2L long identifier.
-    pub description: &'static str,
-    /// Physical unit (SI), `-` for none.
-    pub unit: &'static str,
-    /// Its Command-frame parameter index ([`crate::params`]).
-    pub index: u16,
-    /// How the value is read.
-    pub kind: Kind,
-    /// Lowest allowed value (unit as above).
-    pub min: f32,
-    /// Highest allowed value.
-    pub max: f32,
-}
-
-const fn real(
-    name: &'static str,
-    description: &'static str,
-    unit: &'static str,
-    index: u16,
-    r: Range,
-) -> CalItem {
+/// The settings' items, slots 0 to [`SETTINGS_SLOTS`].
+const SETTINGS: [CalItem; 3] = [
     CalItem {
-        name,
-        description,
-        unit,
-        index,
-        kind: Kind::Real,
-        min: r.min,
-        max: r.max,
-    }
-}
-
-/// Allowed range of the delta-form feed-forward coefficients β (dimensionless): a section's
-/// gain is bounded by the β's, so this bounds it at about 60 dB.
-pub const FILTER_BETA: Range = Range::new(-1.0e3, 1.0e3);
-/// Allowed range of the delta-form feedback coefficients α (dimensionless): a stable
-/// section has `α1 = (1 − p1) + (1 − p2)` and `α2 = (1 − p1)(1 − p2)` in `(0, 4)`; stability
-/// itself is checked by model-core on the whole set.
-pub const FILTER_ALPHA: Range = Range::new(0.0, 4.0);
-
-macro_rules! section {
-    ($s:literal) => {
-        [
-            real(
-                concat!("filter_s", $s, "_beta0"),
-                concat!("command filter section ", $s, ": beta0 = b0 (delta form)"),
-                "-",
-                11 + 5 * $s,
-                FILTER_BETA,
-            ),
-            real(
-                concat!("filter_s", $s, "_beta1"),
-                concat!(
-                    "command filter section ",
-                    $s,
-                    ": beta1 = 2 b0 + b1 (delta form)"
-                ),
-                "-",
-                12 + 5 * $s,
-                FILTER_BETA,
-            ),
-            real(
-                concat!("filter_s", $s, "_beta2"),
-                concat!(
-                    "command filter section ",
-                    $s,
-                    ": beta2 = b0 + b1 + b2 (delta form)"
-                ),
-                "-",
-                13 + 5 * $s,
-                FILTER_BETA,
-            ),
-            real(
-                concat!("filter_s", $s, "_alpha1"),
-                concat!(
-                    "command filter section ",
-                    $s,
-                    ": alpha1 = 2 + a1 (delta form)"
-                ),
-                "-",
-                14 + 5 * $s,
-                FILTER_ALPHA,
-            ),
-            real(
-                concat!("filter_s", $s, "_alpha2"),
-                concat!(
-                    "command filter section ",
-                    $s,
-                    ": alpha2 = 1 + a1 + a2 (delta form)"
-                ),
-                "-",
-                15 + 5 * $s,
-                FILTER_ALPHA,
-            ),
-        ]
-    };
-}
-
-const SECTIONS: [[CalItem; 5]; MAX_SECTIONS] = [section!(0), section!(1), section!(2), section!(3)];
-
-const HEAD: [CalItem; 11] = [
-    real(
-        "tyre_stiffness",
-        "tyre radial stiffness k_t",
-        "N/m",
-        0,
-        tyre::TYRE_STIFFNESS,
-    ),
-    real(
-        "tyre_damping",
-        "tyre radial damping c_t",
-        "N*s/m",
-        1,
-        tyre::TYRE_DAMPING,
-    ),
-    real(
-        "tyre_static_load",
-        "static wheel load",
-        "N",
-        2,
-        tyre::TYRE_STATIC_LOAD,
-    ),
-    CalItem {
-        name: "tyre_lift_off",
-        description: "tyre can lift off the road (1) or is linear (0)",
-        unit: "-",
-        index: 3,
-        kind: Kind::Switch,
-        min: 0.0,
-        max: 1.0,
-    },
-    real(
-        "tyre_velocity_cutoff",
-        "deflection-velocity low-pass cut-off (0: none; exact ZOH first order, stable at any value)",
-        "Hz",
-        4,
-        velocity::VELOCITY_CUTOFF,
-    ),
-    real(
-        "demand_min",
-        "lowest force demand",
-        "N",
-        5,
-        limits::DEMAND_AMPLITUDE,
-    ),
-    real(
-        "demand_max",
-        "highest force demand",
-        "N",
-        6,
-        limits::DEMAND_AMPLITUDE,
-    ),
-    real(
-        "demand_rate",
-        "demand rate limit",
-        "N/s",
-        7,
-        limits::DEMAND_RATE,
-    ),
-    real(
-        "safe_demand",
-        "demand in the safe state; must lie within [demand_min, demand_max] (a page where it does not is refused)",
-        "N",
-        8,
-        limits::DEMAND_AMPLITUDE,
-    ),
-    real(
-        "safe_ramp_rate",
-        "rate towards the safe demand",
-        "N/s",
-        9,
-        SAFE_RAMP_RATE,
-    ),
-    CalItem {
-        name: "filter_sections",
-        description: "command filter: number of sections applied",
-        unit: "-",
-        index: 10,
-        kind: Kind::Integer,
-        min: 0.0,
-        max: MAX_SECTIONS as f32,
-    },
-];
-
-const TAIL: [CalItem; 2] = [
-    CalItem {
+        group: "",
         name: "status_period",
-        description: "controller steps per status frame",
+        index: [0, 0],
+        dims: 0,
         unit: "-",
-        index: INDEX_STATUS_PERIOD,
+        description: "controller steps per status frame",
         kind: Kind::Integer,
         min: STATUS_PERIOD_RANGE.0 as f32,
         max: STATUS_PERIOD_RANGE.1 as f32,
     },
     CalItem {
+        group: "",
         name: "watchdog_limit",
-        description: "communication watchdog: silent ticks before a trip",
+        index: [0, 0],
+        dims: 0,
         unit: "-",
-        index: INDEX_WATCHDOG,
+        description: "communication watchdog: silent ticks (0.5 ms) before a trip",
         kind: Kind::Integer,
         min: if WATCHDOG_OFF_ALLOWED {
             0.0
@@ -273,31 +95,26 @@ const TAIL: [CalItem; 2] = [
         },
         max: WATCHDOG_SAMPLES_RANGE.1 as f32,
     },
+    CalItem {
+        group: "",
+        name: "sample_rate",
+        index: [0, 0],
+        dims: 0,
+        unit: "Hz",
+        description: "rate of the servo controller's measurement frames (changed only while Idle; the bus budget of the configuration must hold)",
+        kind: Kind::Integer,
+        min: SAMPLE_RATE_RANGE.0 as f32,
+        max: SAMPLE_RATE_RANGE.1 as f32,
+    },
 ];
 
-/// Every calibration parameter, in slot order (slot `s` at byte offset `4 s`).
-// Evaluated at compile time: an index out of range fails the build, never the board.
-#[allow(clippy::indexing_slicing)]
-pub const ITEMS: [CalItem; SLOTS] = {
-    let mut out = [HEAD[0]; SLOTS];
-    let mut i = 0;
-    while i < HEAD.len() {
-        out[i] = HEAD[i];
-        i += 1;
+/// What slot `slot` holds, or `None` beyond the page.
+pub fn item(slot: usize) -> Option<CalItem> {
+    match slot.checked_sub(SETTINGS_SLOTS) {
+        None => SETTINGS.get(slot).copied(),
+        Some(k) => page::info(k),
     }
-    let mut s = 0;
-    while s < MAX_SECTIONS {
-        let mut c = 0;
-        while c < 5 {
-            out[HEAD.len() + 5 * s + c] = SECTIONS[s][c];
-            c += 1;
-        }
-        s += 1;
-    }
-    out[SLOT_STATUS_PERIOD] = TAIL[0];
-    out[SLOT_WATCHDOG] = TAIL[1];
-    out
-};
+}
 
 /// The firmware settings that are not controller parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -306,90 +123,90 @@ pub struct Settings {
     pub status_period: u16,
     /// Watchdog limit N (ticks; [`crate::config::WATCHDOG_OFF`] for off).
     pub watchdog: u16,
+    /// Sample rate (Hz) of the measurement frames: the controller's step.
+    pub sample_rate_hz: u16,
+}
+
+impl Settings {
+    /// The sample period (s).
+    pub fn dt(&self) -> f32 {
+        1.0 / f32::from(self.sample_rate_hz.max(1))
+    }
 }
 
 /// The build's default settings.
 pub const DEFAULT_SETTINGS: Settings = Settings {
     status_period: STATUS_PERIOD_SAMPLES,
     watchdog: WATCHDOG_SAMPLES,
+    sample_rate_hz: SAMPLE_RATE_HZ as u16,
 };
 
 /// The page's slots for `params` and `settings` (values as `f32`).
 pub fn page_values(p: &Params, s: &Settings) -> [f32; SLOTS] {
     let mut out = [0.0; SLOTS];
-    for (slot, (v, item)) in out.iter_mut().zip(ITEMS.iter()).enumerate() {
-        *v = match slot {
-            SLOT_STATUS_PERIOD => f32::from(s.status_period),
-            SLOT_WATCHDOG => f32::from(s.watchdog),
-            _ => params::read(p, item.index).unwrap_or(0.0),
-        };
+    for (o, v) in out.iter_mut().skip(SETTINGS_SLOTS).zip(page::to_words(p)) {
+        *o = v;
+    }
+    for (slot, v) in [
+        (SLOT_STATUS_PERIOD, s.status_period),
+        (SLOT_WATCHDOG, s.watchdog),
+        (SLOT_SAMPLE_RATE, s.sample_rate_hz),
+    ] {
+        if let Some(o) = out.get_mut(slot) {
+            *o = f32::from(v);
+        }
     }
     out
 }
 
-// Evaluated at compile time: an index out of range fails the build, never the board.
-#[allow(clippy::indexing_slicing)]
-const fn reference_words() -> [u32; SLOTS] {
-    // `params::read` is not `const`: the defaults are spelled out once more, and
-    // `the_reference_page_holds_the_defaults` checks them against it.
-    let p = default_params();
-    let [tyre] = p.model.tyre;
-    let [lim] = p.limits;
-    let [filter] = p.filter;
-    let mut w = [0u32; SLOTS];
-    w[0] = tyre.stiffness.to_bits();
-    w[1] = tyre.damping.to_bits();
-    w[2] = tyre.static_load.to_bits();
-    w[3] = (tyre.lift_off as f32).to_bits();
-    w[4] = tyre.velocity_cutoff_hz.to_bits();
-    w[5] = lim.min.to_bits();
-    w[6] = lim.max.to_bits();
-    w[7] = lim.rate.to_bits();
-    w[8] = p.safe_demand[0].to_bits();
-    w[9] = p.safe_ramp_rate[0].to_bits();
-    w[10] = (filter.sections as f32).to_bits();
-    let mut s = 0;
-    while s < MAX_SECTIONS {
-        let c = filter.section[s];
-        w[11 + 5 * s] = c.beta0.to_bits();
-        w[12 + 5 * s] = c.beta1.to_bits();
-        w[13 + 5 * s] = c.beta2.to_bits();
-        w[14 + 5 * s] = c.alpha1.to_bits();
-        w[15 + 5 * s] = c.alpha2.to_bits();
-        s += 1;
-    }
-    w[SLOT_STATUS_PERIOD] = (DEFAULT_SETTINGS.status_period as f32).to_bits();
-    w[SLOT_WATCHDOG] = (DEFAULT_SETTINGS.watchdog as f32).to_bits();
-    w
+/// The reference page (XCP page 1): the build's defaults, read-only.
+pub fn reference_words() -> [u32; SLOTS] {
+    page_values(&default_params(), &DEFAULT_SETTINGS).map(f32::to_bits)
 }
 
-/// The reference page (XCP page 1): the build's defaults, read-only, in flash.
-pub static REFERENCE: [u32; SLOTS] = reference_words();
+/// The reference page's copy read by XCP ([`read`]), filled once at start
+/// ([`init_pages`]) from [`reference_words`].
+pub static REFERENCE: [AtomicU32; SLOTS] = [const { AtomicU32::new(0) }; SLOTS];
 
 /// The working page (XCP page 0), in RAM. Written only with a validated change
 /// ([`store_working`]) and, at start, the running values ([`mirror`]).
-// Evaluated at compile time: an index out of range fails the build, never the board.
-#[allow(clippy::indexing_slicing)]
-pub static WORKING: [AtomicU32; SLOTS] = {
-    let words = reference_words();
-    let mut out = [const { AtomicU32::new(0) }; SLOTS];
-    let mut i = 0;
-    while i < SLOTS {
-        out[i] = AtomicU32::new(words[i]);
-        i += 1;
+pub static WORKING: [AtomicU32; SLOTS] = [const { AtomicU32::new(0) }; SLOTS];
+
+/// Fills both pages with the build's defaults (at start, before anything reads them).
+pub fn init_pages() {
+    init_reference();
+    for (w, v) in WORKING.iter().zip(reference_words()) {
+        w.store(v, Ordering::Relaxed);
     }
-    out
-};
+}
 
-/// The running safe demand (channel 0, `f32` bits), for the fatal path: written by
-/// [`Application::install`](crate::application::Application::install) with every installed
-/// set (one atomic store, so a reader never sees half a value), read by
+/// Fills the reference page ([`REFERENCE`]) with the build's defaults: idempotent (always
+/// the same words), done by [`crate::application::Application::new`].
+pub fn init_reference() {
+    for (r, v) in REFERENCE.iter().zip(reference_words()) {
+        r.store(v, Ordering::Relaxed);
+    }
+}
+
+/// The running safe demand of each channel (`f32` bits) and the number of channels, for the
+/// fatal path: written by [`Application::install`](crate::application::Application::install)
+/// with every installed set (atomic stores, so a reader never sees half a value), read by
 /// [`crate::link::safe_demand_frame`] when a panic or HardFault has stopped every task.
-pub static SAFE_DEMAND: AtomicU32 = AtomicU32::new(crate::config::SAFE_DEMAND_N.to_bits());
+pub static SAFE_DEMAND: [AtomicU32; BOARD_CHANNELS] =
+    [const { AtomicU32::new(crate::config::SAFE_DEMAND_N.to_bits()) }; BOARD_CHANNELS];
+/// The running number of channels (see [`SAFE_DEMAND`]).
+pub static RUNNING_CHANNELS: AtomicU32 = AtomicU32::new(1);
 
-/// The safe demand of the set installed last ([`SAFE_DEMAND`]).
-pub fn running_safe_demand() -> f32 {
-    f32::from_bits(SAFE_DEMAND.load(Ordering::Relaxed))
+/// The safe demand of channel `ch` of the set installed last ([`SAFE_DEMAND`]).
+pub fn running_safe_demand(ch: usize) -> f32 {
+    SAFE_DEMAND
+        .get(ch)
+        .map_or(0.0, |w| f32::from_bits(w.load(Ordering::Relaxed)))
+}
+
+/// The number of channels of the set installed last.
+pub fn running_channels() -> usize {
+    RUNNING_CHANNELS.load(Ordering::Relaxed) as usize
 }
 
 /// Which page an access addresses.
@@ -404,12 +221,13 @@ pub enum Page {
 /// Copies `out.len()` bytes of `page` from byte `offset` into `out`; bytes beyond the page
 /// read as 0 (the XCP slave checks the range before it calls this).
 pub fn read(page: Page, offset: usize, out: &mut [u8]) {
+    let words = match page {
+        Page::Working => &WORKING,
+        Page::Reference => &REFERENCE,
+    };
     for (k, b) in out.iter_mut().enumerate() {
         let at = offset.saturating_add(k);
-        let word = match page {
-            Page::Working => WORKING.get(at / 4).map(|w| w.load(Ordering::Relaxed)),
-            Page::Reference => REFERENCE.get(at / 4).copied(),
-        };
+        let word = words.get(at / 4).map(|w| w.load(Ordering::Relaxed));
         *b = word.map_or(0, |w| w.to_le_bytes().get(at % 4).copied().unwrap_or(0));
     }
 }
@@ -422,21 +240,62 @@ pub fn mirror(p: &Params, s: &Settings) {
     }
 }
 
-/// The parameters and settings the page's `words` hold, validated slot by slot and as a
-/// whole set, or the CommandAck code of the first refusal.
+/// The CommandAck code of a refused page word.
+fn word_code(e: WordError) -> u8 {
+    match e {
+        WordError::NotFinite(_) => code::NOT_FINITE,
+        WordError::OutOfRange(_) => code::OUT_OF_RANGE,
+    }
+}
+
+/// The bus schedule of a configuration: its channels at its rate, channel `c` on CAN
+/// `c mod 2` when it has more than one (see `mil_frames::bus_load`); the aero model's
+/// speed, and every channel's measured force for a substructure that takes forces.
+pub fn schedule(p: &Params, s: &Settings) -> Schedule {
+    let channels = p.channels.min(BOARD_CHANNELS as u32) as u8;
+    let rate = f64::from(s.sample_rate_hz);
+    let forces = p.substructure.causality().is_some_and(|c| {
+        matches!(
+            c,
+            model_core::Causality::Admittance | model_core::Causality::AdmittanceThroughImpedance
+        )
+    });
+    let one_bus = match p.model_kind() {
+        Some(ModelKind::Aero) => Schedule::aero(rate),
+        Some(ModelKind::Substructure) => Schedule::substructure(channels, forces, rate),
+        _ => Schedule::tyre(channels, rate),
+    };
+    one_bus.on_buses(channels.clamp(1, 2))
+}
+
+/// The bus rate the schedules are budgeted for (bit/s): classic CAN at 1 Mbit/s.
+pub const BUS_BIT_PER_S: f64 = 1.0e6;
+
+/// The parameters and settings the page's `words` hold, validated slot by slot, as a whole
+/// set at the page's sample rate, and against the bus budget, or the CommandAck code of
+/// the first refusal.
 pub fn decode_page(words: &[u32; SLOTS]) -> Result<(Prepared, Settings), u8> {
-    let mut next = default_params();
+    let mut board = [0.0f32; WORDS];
+    for (b, w) in board.iter_mut().zip(words.iter().skip(SETTINGS_SLOTS)) {
+        *b = f32::from_bits(*w);
+    }
+    let p = page::from_words(&board).map_err(word_code)?;
     let mut settings = DEFAULT_SETTINGS;
-    for (slot, (&w, item)) in words.iter().zip(ITEMS.iter()).enumerate() {
-        let value = f32::from_bits(w);
+    for slot in 0..SETTINGS_SLOTS {
+        let value = f32::from_bits(words.get(slot).copied().ok_or(code::OUT_OF_RANGE)?);
         check_slot(slot, value)?;
         match slot {
             SLOT_STATUS_PERIOD => settings.status_period = params::status_period(value)?,
             SLOT_WATCHDOG => settings.watchdog = params::watchdog_limit(value)?,
-            _ => params::write(&mut next, item.index, value)?,
+            _ => settings.sample_rate_hz = params::integer_in(value, SAMPLE_RATE_RANGE)?,
         }
     }
-    let prepared = Prepared::new(&next, DT).map_err(|e: ParamError| params::error_code(&e))?;
+    let prepared = p
+        .prepare(settings.dt())
+        .map_err(|e| params::error_code(&e))?;
+    if schedule(&p, &settings).check(BUS_BIT_PER_S).is_err() {
+        return Err(code::BUS_BUDGET);
+    }
     Ok((prepared, settings))
 }
 
@@ -447,9 +306,20 @@ pub fn store_working(words: &[u32; SLOTS]) {
     }
 }
 
-/// The page slot of parameter `index` ([`CalItem::index`]), or `None` for an unknown index.
+/// The page slot of Command-frame parameter `index`: the slot itself, or `None` beyond
+/// the page.
 pub fn slot_of(index: u16) -> Option<usize> {
-    ITEMS.iter().position(|item| item.index == index)
+    let slot = usize::from(index);
+    (slot < SLOTS).then_some(slot)
+}
+
+/// The slot of the item named `name` (as the A2L names it: group, name and indices joined
+/// by `_`, e.g. `tyre_stiffness_0`), or `None`. Host side (formats every name).
+#[cfg(not(target_os = "none"))]
+pub fn slot_named(name: &str) -> Option<usize> {
+    extern crate std;
+    use std::string::ToString;
+    (0..SLOTS).find(|&s| item(s).is_some_and(|i| i.to_string() == name))
 }
 
 /// The working page's words now.
@@ -461,9 +331,19 @@ pub fn working_words() -> [u32; SLOTS] {
 #[cfg(test)]
 pub(crate) fn test_lock() -> std::sync::MutexGuard<'static, ()> {
     static PAGES: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    PAGES
+    let guard = PAGES
         .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if REFERENCE
+        .first()
+        .is_some_and(|w| w.load(Ordering::Relaxed) == 0)
+        && REFERENCE
+            .get(1)
+            .is_some_and(|w| w.load(Ordering::Relaxed) == 0)
+    {
+        init_pages();
+    }
+    guard
 }
 
 /// A validated change of the working page: the page's new words, and the prepared
@@ -479,35 +359,20 @@ pub struct Accepted {
 
 /// Checks one slot's value against its item: the CommandAck code of the reason if refused.
 pub fn check_slot(slot: usize, value: f32) -> Result<(), u8> {
-    let item = ITEMS.get(slot).ok_or(code::UNKNOWN_INDEX)?;
-    if !value.is_finite() {
-        return Err(code::NOT_FINITE);
-    }
-    if value < item.min || value > item.max {
-        return Err(code::OUT_OF_RANGE);
-    }
-    let integral = value == (value as i64) as f32;
-    match item.kind {
-        Kind::Real => Ok(()),
-        Kind::Integer | Kind::Switch if integral => Ok(()),
-        _ => Err(code::OUT_OF_RANGE),
-    }
+    let item = item(slot).ok_or(code::UNKNOWN_INDEX)?;
+    page::check(&item, value).map_err(|e| word_code(e(slot)))
 }
 
-/// Validates writing `data` at byte `offset` of the page holding `p` and `s` (see the
-/// module documentation): the page's new words and what they hold, or the CommandAck code
-/// of the refusal. Pure: changes nothing (the caller installs and stores it).
-pub fn validate_write(
-    p: &Params,
-    s: &Settings,
-    offset: usize,
-    data: &[u8],
-) -> Result<Accepted, u8> {
+/// Validates writing `data` at byte `offset` of the page `words` (see the module
+/// documentation): the page's new words and what they hold, or the CommandAck code of the
+/// refusal (the first refused slot's reason, then the whole set's). Pure: changes nothing
+/// (the caller installs and stores it).
+pub fn validate_write(words: &[u32; SLOTS], offset: usize, data: &[u8]) -> Result<Accepted, u8> {
     let end = offset.checked_add(data.len()).ok_or(code::OUT_OF_RANGE)?;
     if end > PAGE_BYTES || data.is_empty() {
         return Err(code::OUT_OF_RANGE);
     }
-    let mut words = page_values(p, s).map(f32::to_bits);
+    let mut words = *words;
     for (k, &b) in data.iter().enumerate() {
         let at = offset + k;
         let w = words.get_mut(at / 4).ok_or(code::OUT_OF_RANGE)?;
@@ -517,23 +382,14 @@ pub fn validate_write(
         }
         *w = u32::from_le_bytes(bytes);
     }
-    let first = offset / 4;
-    let last = (end - 1) / 4;
-    let mut next = *p;
-    let mut settings = *s;
-    for slot in first..=last {
-        let value = f32::from_bits(words.get(slot).copied().ok_or(code::OUT_OF_RANGE)?);
-        check_slot(slot, value)?;
-        match slot {
-            SLOT_STATUS_PERIOD => settings.status_period = params::status_period(value)?,
-            SLOT_WATCHDOG => settings.watchdog = params::watchdog_limit(value)?,
-            _ => {
-                let index = ITEMS.get(slot).ok_or(code::UNKNOWN_INDEX)?.index;
-                params::write(&mut next, index, value)?;
-            }
-        }
+    // The touched slots first: a bad value is named as such.
+    for slot in offset / 4..=(end - 1) / 4 {
+        check_slot(
+            slot,
+            f32::from_bits(words.get(slot).copied().ok_or(code::OUT_OF_RANGE)?),
+        )?;
     }
-    let prepared = Prepared::new(&next, DT).map_err(|e: ParamError| params::error_code(&e))?;
+    let (prepared, settings) = decode_page(&words)?;
     Ok(Accepted {
         prepared,
         settings,
@@ -802,6 +658,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use std::string::ToString;
 
     fn lock() -> std::sync::MutexGuard<'static, ()> {
         test_lock()
@@ -811,109 +668,142 @@ mod tests {
         v.to_le_bytes()
     }
 
+    fn slot(name: &str) -> usize {
+        slot_named(name).unwrap_or_else(|| panic!("no slot {name}"))
+    }
+
+    fn defaults() -> [u32; SLOTS] {
+        reference_words()
+    }
+
     #[test]
-    fn items_match_the_parameter_indices_and_are_unique() {
-        for (slot, item) in ITEMS.iter().enumerate() {
-            match slot {
-                SLOT_STATUS_PERIOD => assert_eq!(item.index, INDEX_STATUS_PERIOD),
-                SLOT_WATCHDOG => assert_eq!(item.index, INDEX_WATCHDOG),
-                _ => assert_eq!(usize::from(item.index), slot, "{}", item.name),
-            }
-            assert!(item.min <= item.max && item.min.is_finite() && item.max.is_finite());
-            for other in &ITEMS[slot + 1..] {
-                assert_ne!(item.name, other.name);
-            }
+    fn items_are_the_settings_then_the_board_page() {
+        let mut names = std::collections::BTreeSet::new();
+        for s in 0..SLOTS {
+            let item = item(s).unwrap();
+            assert!(names.insert(item.to_string()), "{item} twice");
         }
-        assert_eq!(ITEMS[11].name, "filter_s0_beta0");
-        assert_eq!(ITEMS[30].name, "filter_s3_alpha2");
-        assert_eq!(ITEMS[30].index, 30);
+        assert!(item(SLOTS).is_none());
+        assert_eq!(slot("status_period"), SLOT_STATUS_PERIOD);
+        assert_eq!(slot("watchdog_limit"), SLOT_WATCHDOG);
+        assert_eq!(slot("sample_rate"), SLOT_SAMPLE_RATE);
+        assert_eq!(slot("model_kind"), SLOT_MODEL_KIND);
+        assert_eq!(slot("model_channels"), SLOT_CHANNELS);
+        assert_eq!(slot("tyre_stiffness_0"), SETTINGS_SLOTS + 2);
+        // Command frames (8-bit index) reach the model, the tyres and the aero model.
+        assert!(slot("tyre_velocity_cutoff_3") < 256 && slot("aero_use_map") < 256);
     }
 
     #[test]
     fn the_reference_page_holds_the_defaults() {
+        let _turn = lock();
         let want = page_values(&default_params(), &DEFAULT_SETTINGS).map(f32::to_bits);
-        assert_eq!(REFERENCE, want);
-        let mut out = [0u8; PAGE_BYTES];
-        read(Page::Reference, 0, &mut out);
-        assert_eq!(&out[0..4], &bytes(2.5e5));
-        for (slot, &v) in page_values(&default_params(), &DEFAULT_SETTINGS)
-            .iter()
-            .enumerate()
-        {
-            assert!(check_slot(slot, v).is_ok(), "default of slot {slot}");
+        assert_eq!(defaults(), want);
+        let mut out = [0u8; 4];
+        read(Page::Reference, 4 * slot("tyre_stiffness_0"), &mut out);
+        assert_eq!(out, bytes(2.5e5));
+        for (s, &v) in want.iter().enumerate() {
+            assert!(
+                check_slot(s, f32::from_bits(v)).is_ok(),
+                "default of slot {s}"
+            );
         }
+        assert!(decode_page(&want).is_ok());
     }
 
     #[test]
     fn a_valid_write_is_validated_and_stores_nothing_by_itself() {
         let _turn = lock();
-        let p = default_params();
-        let s = DEFAULT_SETTINGS;
-        mirror(&p, &s);
+        init_pages();
         let before = working_words();
-        let a = validate_write(&p, &s, 4, &bytes(800.0)).expect("accepted");
-        assert_eq!(a.prepared.params().model.tyre[0].damping, 800.0);
-        assert_eq!(f32::from_bits(a.words[1]), 800.0);
+        let damping = slot("tyre_damping_0");
+        let a = validate_write(&before, 4 * damping, &bytes(800.0)).expect("accepted");
+        assert_eq!(a.prepared.params().tyre.tyre[0].damping, 800.0);
+        assert_eq!(f32::from_bits(a.words[damping]), 800.0);
         assert_eq!(working_words(), before, "validation stores nothing");
         store_working(&a.words);
         let mut out = [0u8; 4];
-        read(Page::Working, 4, &mut out);
+        read(Page::Working, 4 * damping, &mut out);
         assert_eq!(out, bytes(800.0));
-        // The reference page is untouched.
-        read(Page::Reference, 4, &mut out);
+        read(Page::Reference, 4 * damping, &mut out);
         assert_eq!(out, bytes(500.0));
-        // Settings.
-        let a = validate_write(&p, &s, 4 * SLOT_STATUS_PERIOD, &bytes(20.0)).expect("accepted");
-        assert_eq!(a.prepared.params(), &p);
+        let a = validate_write(&before, 4 * SLOT_STATUS_PERIOD, &bytes(20.0)).expect("accepted");
+        assert_eq!(a.prepared.params(), &default_params());
         assert_eq!(a.settings.status_period, 20);
-        mirror(&p, &s);
+        init_pages();
     }
 
     #[test]
-    fn refused_writes_change_nothing_and_name_the_reason() {
-        let _turn = lock();
-        let p = default_params();
-        let s = DEFAULT_SETTINGS;
-        mirror(&p, &s);
-        let before: [u32; SLOTS] = core::array::from_fn(|i| WORKING[i].load(Ordering::Relaxed));
-        let cases: [(usize, [u8; 4], u8); 6] = [
-            (0, bytes(f32::NAN), code::NOT_FINITE),
-            (0, bytes(-1.0), code::OUT_OF_RANGE),
-            (0, bytes(2.0e8), code::OUT_OF_RANGE),
-            (12, bytes(0.5), code::OUT_OF_RANGE), // lift-off switch 0.5
-            (20, bytes(20_000.0), code::INCONSISTENT), // minimum above maximum
-            (40, bytes(1.5), code::OUT_OF_RANGE), // section count 1.5
+    fn refused_writes_name_the_reason() {
+        let words = defaults();
+        let cases = [
+            ("tyre_stiffness_0", f32::NAN, code::NOT_FINITE),
+            ("tyre_stiffness_0", -1.0, code::OUT_OF_RANGE),
+            ("tyre_stiffness_0", 2.0e8, code::OUT_OF_RANGE),
+            ("tyre_lift_off_0", 0.5, code::OUT_OF_RANGE),
+            ("limits_demand_min_0", 20_000.0, code::INCONSISTENT),
+            ("filter_sections_0", 1.5, code::OUT_OF_RANGE),
+            ("model_kind", 3.0, code::OUT_OF_RANGE),
+            ("model_channels", 5.0, code::OUT_OF_RANGE),
+            ("sample_rate", 50.0, code::OUT_OF_RANGE),
+            // The garbage of a channel that does not run is only range-checked…
+            ("limits_demand_min_3", 20_000.0, code::OK),
+            // …until it runs.
+            ("model_channels", 4.0, code::INCONSISTENT),
         ];
-        for (offset, data, want) in cases {
-            assert_eq!(
-                validate_write(&p, &s, offset, &data).err(),
-                Some(want),
-                "offset {offset}"
-            );
+        let mut w = words;
+        for (name, value, want) in cases {
+            let got = match validate_write(&w, 4 * slot(name), &bytes(value)) {
+                Ok(a) => {
+                    w = a.words;
+                    code::OK
+                }
+                Err(c) => c,
+            };
+            assert_eq!(got, want, "{name} = {value}");
         }
-        // An unstable section once applied: alpha2 of section 0 = 0 with alpha1 = 0 is a
-        // double pole at z = 1.
+        // An unstable section once applied: alpha1 = alpha2 = 0 is a double pole at z = 1.
         let mut block = [0u8; 24];
         block[0..4].copy_from_slice(&bytes(1.0)); // sections = 1
         block[4..8].copy_from_slice(&bytes(1.0)); // beta0
-                                                  // beta1, beta2, alpha1, alpha2 = 0
         assert_eq!(
-            validate_write(&p, &s, 40, &block).err(),
+            validate_write(&words, 4 * slot("filter_sections_0"), &block).err(),
             Some(code::UNSTABLE)
         );
-        // Straddling the end, empty, and overflowing.
-        assert!(validate_write(&p, &s, PAGE_BYTES - 2, &[0; 4]).is_err());
-        assert!(validate_write(&p, &s, 0, &[]).is_err());
-        assert!(validate_write(&p, &s, usize::MAX, &[0; 2]).is_err());
-        let after: [u32; SLOTS] = core::array::from_fn(|i| WORKING[i].load(Ordering::Relaxed));
-        assert_eq!(before, after);
+        assert!(validate_write(&words, PAGE_BYTES - 2, &[0; 4]).is_err());
+        assert!(validate_write(&words, 0, &[]).is_err());
+        assert!(validate_write(&words, usize::MAX, &[0; 2]).is_err());
+    }
+
+    /// The configuration (sample rate, model kind, channels: slots 2–4, one block) must
+    /// fit the bus budget: four tyres at 2 kHz do not, at 1 kHz they do (on both buses);
+    /// the aero model at 1 kHz does.
+    #[test]
+    fn a_configuration_beyond_the_bus_budget_is_refused() {
+        let words = defaults();
+        let config = |rate: f32, kind: ModelKind, channels: f32| {
+            let mut block = [0u8; 12];
+            block[0..4].copy_from_slice(&bytes(rate));
+            block[4..8].copy_from_slice(&bytes(kind as u32 as f32));
+            block[8..12].copy_from_slice(&bytes(channels));
+            validate_write(&words, 4 * SLOT_SAMPLE_RATE, &block).map(|a| a.settings.sample_rate_hz)
+        };
+        assert_eq!(
+            config(2000.0, ModelKind::Tyre, 4.0).err(),
+            Some(code::BUS_BUDGET)
+        );
+        assert_eq!(config(1000.0, ModelKind::Tyre, 4.0), Ok(1000));
+        assert_eq!(config(2000.0, ModelKind::Tyre, 1.0), Ok(2000));
+        assert_eq!(config(1000.0, ModelKind::Aero, 2.0), Ok(1000));
+        assert_eq!(config(2000.0, ModelKind::Aero, 2.0), Ok(2000));
+        assert_eq!(
+            config(2500.0, ModelKind::Aero, 2.0).err(),
+            Some(code::BUS_BUDGET)
+        );
     }
 
     #[test]
     fn a_whole_filter_goes_in_as_one_block() {
-        let _turn = lock();
-        let p = default_params();
-        let s = DEFAULT_SETTINGS;
         // Count 1 and one stable section (poles at 0.9 ± 0: alpha1 = 0.2, alpha2 = 0.01,
         // unity DC gain: beta2 = alpha2).
         let vals = [1.0f32, 0.0, 0.0, 0.01, 0.2, 0.01];
@@ -921,11 +811,11 @@ mod tests {
         for (k, v) in vals.iter().enumerate() {
             block[4 * k..4 * k + 4].copy_from_slice(&bytes(*v));
         }
-        let a = validate_write(&p, &s, 40, &block).expect("stable filter accepted");
+        let a = validate_write(&defaults(), 4 * slot("filter_sections_0"), &block)
+            .expect("stable filter accepted");
         let f = a.prepared.params().filter[0];
         assert_eq!(f.sections, 1);
         assert_eq!(f.section[0].alpha1, 0.2);
-        mirror(&p, &s);
     }
 
     #[test]

@@ -1,37 +1,42 @@
 //! The configuration defaults of the firmware, in one place.
 //!
-//! The model is the paper's tyre example on one hub actuator: `Controller<TyreModel<1>, 1>`
-//! with [`TyreParams::PAPER`] (k_t 250 N/mm, c_t 0.5 N s/mm, static load (150 + 20) kg ·
-//! 9.81 m/s², lift-off, 500 Hz velocity low-pass), no command filter, at 2 kHz, and the limits
-//! and safe state of `host-tools/mil/examples/tyre.toml`. Everything here can be changed
-//! at run time through Command frames (see [`crate::params`] for the parameter indices), except
-//! the sample period, which is fixed by the servo controller's measurement rate.
+//! One image runs every model (model-core's [`BoardController`]): the tyre on 1 to 4 hub
+//! channels, the aero model on its two channels, or a substructure on 1 to 4 channels,
+//! chosen at run time by the calibration page's `board_model_kind` and `board_channels`
+//! (changed only while Idle) at the page's `sample_rate` (likewise). The board boots into
+//! the stored page or these defaults: the paper's tyre example on one hub actuator
+//! ([`TyreParams::PAPER`]: k_t 250 N/mm, c_t 0.5 N s/mm, static load (150 + 20) kg ·
+//! 9.81 m/s², lift-off, 500 Hz velocity low-pass), no command filter, at 2 kHz, and the
+//! limits and safe state of `host-tools/mil/examples/tyre.toml`.
 
-use model_core::{
-    CascadeCoefficients, ControllerParams, DemandLimits, TyreModel, TyreModelParams, TyreParams,
-};
+use model_core::board::BOARD_CHANNELS;
+use model_core::{BoardController, BoardParams, BoardPrepared, DemandLimits, TyreParams};
 
-/// Number of actuator channels this firmware serves.
-pub const CHANNELS: usize = 1;
-
-/// The numerical model.
-pub type Model = TyreModel<CHANNELS>;
+/// Most actuator channels this firmware serves.
+pub const CHANNELS: usize = BOARD_CHANNELS;
 
 /// The controller type of the firmware.
-pub type Controller = model_core::Controller<Model, CHANNELS>;
+pub type Controller = BoardController;
 
 /// The full parameter set.
-pub type Params = ControllerParams<TyreModelParams<CHANNELS>, CHANNELS>;
+pub type Params = BoardParams;
 
 /// Validated parameters, ready to be swapped in.
-pub type Prepared = model_core::PreparedParams<Model, CHANNELS>;
+pub type Prepared = BoardPrepared;
 
-/// Sample rate of the servo controller's measurement frames (Hz): one tyre channel per
-/// 1 Mbit/s CAN bus sustains 2 kHz.
+/// Default sample rate of the servo controller's measurement frames (Hz): one tyre channel
+/// per 1 Mbit/s CAN bus sustains 2 kHz. The running rate is the page's `sample_rate`.
 pub const SAMPLE_RATE_HZ: u32 = 2000;
 
-/// Sample period `dt` (s) of the controller step.
+/// Allowed sample rates (Hz).
+pub const SAMPLE_RATE_RANGE: (u16, u16) = (100, 10_000);
+
+/// Default sample period `dt` (s) of the controller step.
 pub const DT: f32 = 1.0 / SAMPLE_RATE_HZ as f32;
+
+/// The watchdog tick rate of the board build (Hz): the default sample rate, whatever the
+/// running one (the watchdog counts ticks, see [`WATCHDOG_SAMPLES`]).
+pub const TICK_RATE_HZ: u32 = SAMPLE_RATE_HZ;
 
 /// Lowest force demand (N).
 pub const DEMAND_MIN_N: f32 = -1000.0;
@@ -69,8 +74,8 @@ pub const STATUS_PERIOD_SAMPLES: u16 = (SAMPLE_RATE_HZ / 10) as u16;
 /// Allowed status periods (steps).
 pub const STATUS_PERIOD_RANGE: (u16, u16) = (1, 60_000);
 
-/// Watchdog tick period of the board build (µs): one sample period.
-pub const BOARD_TICK_US: u32 = 1_000_000 / SAMPLE_RATE_HZ;
+/// Watchdog tick period of the board build (µs): one default sample period.
+pub const BOARD_TICK_US: u32 = 1_000_000 / TICK_RATE_HZ;
 
 /// Watchdog tick period of the QEMU build, in QEMU's virtual time (µs): 50 ms, 100 times the
 /// sample period. QEMU exchanges about 900 SLCAN lines per second of wall time in lockstep
@@ -107,17 +112,10 @@ pub const LIMITS: DemandLimits = DemandLimits {
     rate: DEMAND_RATE_N_PER_S,
 };
 
-/// The default parameter set: the paper's tyre, no command filter, `tyre.toml`'s limits.
+/// The default parameter set: the paper's tyre on one hub channel, no command filter,
+/// `tyre.toml`'s limits (on every channel).
 pub const fn default_params() -> Params {
-    ControllerParams {
-        model: TyreModelParams {
-            tyre: [TYRE; CHANNELS],
-        },
-        filter: [CascadeCoefficients::IDENTITY; CHANNELS],
-        limits: [LIMITS; CHANNELS],
-        safe_demand: [SAFE_DEMAND_N; CHANNELS],
-        safe_ramp_rate: [SAFE_RAMP_N_PER_S; CHANNELS],
-    }
+    BoardParams::tyres(TYRE, 1, LIMITS, SAFE_DEMAND_N, SAFE_RAMP_N_PER_S)
 }
 
 #[cfg(test)]
@@ -127,7 +125,7 @@ mod tests {
     #[test]
     fn defaults_are_valid_and_match_the_paper() {
         let p = default_params();
-        assert!(Prepared::new(&p, DT).is_ok());
+        assert!(p.prepare(DT).is_ok());
         // The static load differs from `TyreParams::PAPER`'s 170 · 9.81 only by rounding.
         assert!((TYRE.static_load - TyreParams::PAPER.static_load).abs() < 0.01);
         assert_eq!(TYRE.stiffness, TyreParams::PAPER.stiffness);

@@ -1,7 +1,8 @@
 //! The panic and HardFault paths: leave the demand output in the safe state.
 //!
-//! Both builds: interrupts off (no task runs again), then one Demand frame with the running
-//! safe demand (`calibration::SAFE_DEMAND`, default 1667.7 N; mode Fault, fault flag set) and one Status frame saying why (mode
+//! Both builds: interrupts off (no task runs again), then one Demand frame per running
+//! channel with its safe demand (`calibration::SAFE_DEMAND`, default 1667.7 N; mode Fault,
+//! fault flag set) and one Status frame saying why (mode
 //! Fault, fault bit 5 `FIRMWARE_STOPPED` with the bits latched before) are sent best effort
 //! straight through the peripheral registers, bypassing the drivers the tasks own.
 //! - Board: the frame goes into a free bxCAN mailbox (a pending frame is aborted if all three
@@ -15,12 +16,15 @@
 use core::panic::PanicInfo;
 
 use cortex_m_rt::{exception, ExceptionFrame};
+use mil_firmware::calibration::running_channels;
 use mil_firmware::link::{fatal_status_frame, safe_demand_frame};
 
 /// Sends the safe demand, reports `cause` and stops for good.
 pub fn stop(cause: core::fmt::Arguments) -> ! {
     cortex_m::interrupt::disable();
-    send_frame(&safe_demand_frame(0));
+    for ch in 0..running_channels().clamp(1, mil_firmware::config::CHANNELS) {
+        send_frame(&safe_demand_frame(ch, 0));
+    }
     send_frame(&fatal_status_frame());
     report(cause);
     halt()

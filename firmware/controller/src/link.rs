@@ -5,9 +5,9 @@
 //! # Received frames (either transport)
 //! | frame (`mil_frames::decode`) | action |
 //! | --- | --- |
-//! | Measurement, channel 0 | one controller step; the Demand (and every K-th step a Status) is queued at once |
-//! | MeasurementAux, channel 0 | force and speed stored for the next step |
-//! | Measurement or MeasurementAux of another channel | counted as malformed, ignored |
+//! | Measurement of a running channel | stored; the one completing its sample steps the controller, and the Demand of every running channel (and every K-th step a Status) is queued at once |
+//! | MeasurementAux of a running channel | force and speed stored for the next step |
+//! | Measurement or MeasurementAux of a channel the running model does not have | counted as malformed, ignored |
 //! | Command | forwarded to the configuration task, which answers with a CommandAck |
 //! | a Command frame that fails to decode (NaN value, unknown command, reserved bits, length) | counted as malformed; answered with a CommandAck whose result is the decode error's code (`CommandAck::rejecting`) |
 //! | any other frame in the MiL range that fails to decode (length, range, "not available", free ID, remote) | counted as malformed, ignored |
@@ -82,17 +82,18 @@ pub fn wire_mode(mode: Mode) -> mil_frames::Mode {
     }
 }
 
-/// The Demand frame of channel 0. A non-finite demand (which model-core never produces) is
-/// replaced by the safe demand with the fault flag set: a NaN is never transmitted.
+/// The Demand frame of channel `ch`. A non-finite demand (which model-core never produces)
+/// is replaced by the safe demand with the fault flag set: a NaN is never transmitted.
 ///
 /// This is the control path's encoder: the same bytes as `mil_frames::encode_demand` (a host
 /// test compares them over the whole f32 range), but in f32 and 32-bit integer arithmetic
 /// only. `encode_demand` rounds through f64, which the Cortex-M4F emulates in software (about
 /// 600 instructions against about 60 here). Bit positions, factor and limits still come from
 /// the DBC table (`mil_frames::dbc::demand`); the build fails if they change shape.
-pub fn demand_frame(d: &Demand) -> RawFrame {
-    let [force] = d.force_n;
+pub fn demand_frame(d: &Demand, ch: usize) -> RawFrame {
+    let force = d.force_n.get(ch).copied().unwrap_or(f32::NAN);
     let counter = (d.counter % COUNTER_MODULUS) as u8;
+    let bit = |mask: u8| u64::from(mask.checked_shr(ch as u32).unwrap_or(0) & 1);
     match demand_raw(force) {
         Some(raw) => {
             use mil_frames::dbc::demand as s;
@@ -100,19 +101,19 @@ pub fn demand_frame(d: &Demand) -> RawFrame {
                 | u64::from(counter) << s::COUNTER.start_bit
                 | (wire_mode(d.mode) as u64) << s::MODE.start_bit
                 | u64::from(d.fault_latched) << s::FAULT_LATCHED.start_bit
-                | u64::from(d.amplitude_limited & 1) << s::AMPLITUDE_LIMITED.start_bit
-                | u64::from(d.rate_limited & 1) << s::RATE_LIMITED.start_bit;
+                | bit(d.amplitude_limited) << s::AMPLITUDE_LIMITED.start_bit
+                | bit(d.rate_limited) << s::RATE_LIMITED.start_bit;
             RawFrame {
-                id: DEMAND_ID,
+                id: DEMAND_ID + ch as u16,
                 len: s::MESSAGE.dlc,
                 data: word.to_le_bytes(),
             }
         }
-        None => safe_demand_frame(counter),
+        None => safe_demand_frame(ch, counter),
     }
 }
 
-/// The Demand ID of channel 0.
+/// The Demand ID of channel 0 (channel `c`: this plus `c`).
 const DEMAND_ID: u16 = LAYOUT.base_id() + mil_frames::dbc::demand::MESSAGE.id_offset;
 
 // The fast demand encoder relies on this shape of the DBC's Demand message.
@@ -182,13 +183,13 @@ pub fn fatal_status_frame() -> RawFrame {
 /// QEMU exits with status 1. The board build has no such line.
 pub const QEMU_FORCE_HARDFAULT: &[u8] = b"!HARDFAULT";
 
-/// The Demand frame of the fatal path (panic, HardFault): the safe demand of the set
-/// installed last ([`crate::calibration::running_safe_demand`]; the build's default until
-/// a set is installed), mode Fault, fault flag set.
-pub fn safe_demand_frame(counter: u8) -> RawFrame {
+/// The Demand frame of channel `ch` on the fatal path (panic, HardFault): that channel's
+/// safe demand of the set installed last ([`crate::calibration::running_safe_demand`]; the
+/// build's default until a set is installed), mode Fault, fault flag set.
+pub fn safe_demand_frame(ch: usize, counter: u8) -> RawFrame {
     let frame = mil_frames::Demand {
-        channel: 0,
-        demand_n: crate::calibration::running_safe_demand(),
+        channel: ch as u8,
+        demand_n: crate::calibration::running_safe_demand(ch),
         counter,
         flags: DemandFlags {
             mode: mil_frames::Mode::Fault,
@@ -200,7 +201,7 @@ pub fn safe_demand_frame(counter: u8) -> RawFrame {
     match encode_demand(&LAYOUT, &frame) {
         Ok(f) => f,
         Err(_) => RawFrame {
-            id: LAYOUT.base_id() + 0x10,
+            id: DEMAND_ID + ch as u16,
             len: MessageKind::Demand.dlc(),
             data: [0; 8],
         },
@@ -232,13 +233,30 @@ pub fn ack_frame(command_raw: u8, index_raw: u8, result: u8, mode: Mode) -> RawF
     )
 }
 
-/// Queues the frames of one step: the demand first (counted late when it cannot be queued),
-/// then the status.
-pub fn transmit<T: Transport>(app: &mut Application, out: &Output, tx: &mut T) {
-    if !tx.queue(&demand_frame(&out.demand)) {
-        app.count_tx_dropped();
-        app.count_late_demand();
+/// The Demand frames of one step, one per running channel (the first `demand.channels`).
+pub fn demand_frames(demand: &Demand) -> [RawFrame; crate::config::CHANNELS] {
+    core::array::from_fn(|ch| demand_frame(demand, ch))
+}
+
+/// Queues the Demand frames of one step (counted late when one cannot be queued).
+fn queue_demands<T: Transport>(
+    app: &mut Application,
+    demand: &Demand,
+    frames: &[RawFrame; crate::config::CHANNELS],
+    tx: &mut T,
+) {
+    for frame in frames.iter().take(usize::from(demand.channels)) {
+        if !tx.queue(frame) {
+            app.count_tx_dropped();
+            app.count_late_demand();
+        }
     }
+}
+
+/// Queues the frames of one step: the demands first (counted late when one cannot be
+/// queued), then the status.
+pub fn transmit<T: Transport>(app: &mut Application, out: &Output, tx: &mut T) {
+    queue_demands(app, &out.demand, &demand_frames(&out.demand), tx);
     if let Some(status) = &out.status {
         if !tx.queue(&status_frame(status)) {
             app.count_tx_dropped();
@@ -271,9 +289,9 @@ pub mod stage {
     pub const DECODED: usize = 0;
     /// The controller has stepped.
     pub const STEPPED: usize = 1;
-    /// The demand frame is encoded.
+    /// The demand frames are encoded.
     pub const ENCODED: usize = 2;
-    /// The demand frame is queued (the status, if any, follows).
+    /// The demand frames are queued (the status, if any, follows).
     pub const DEMAND_QUEUED: usize = 3;
 }
 
@@ -300,12 +318,9 @@ pub fn on_frame_probed<T: Transport, P: FnMut(usize)>(
             match app.on_measurement(&m) {
                 Ok(out) => {
                     probe(stage::STEPPED);
-                    let demand = demand_frame(&out.demand);
+                    let frames = demand_frames(&out.demand);
                     probe(stage::ENCODED);
-                    if !tx.queue(&demand) {
-                        app.count_tx_dropped();
-                        app.count_late_demand();
-                    }
+                    queue_demands(app, &out.demand, &frames, tx);
                     probe(stage::DEMAND_QUEUED);
                     if let Some(status) = &out.status {
                         if !tx.queue(&status_frame(status)) {
@@ -668,18 +683,22 @@ mod tests {
         ]);
         let mut checked = 0;
         for (i, v) in values.iter().enumerate() {
+            let ch = i % 4;
+            let mut force_n = [0.0; crate::config::CHANNELS];
+            force_n[ch] = *v;
             let d = Demand {
-                force_n: [*v],
+                force_n,
+                channels: 4,
                 counter: i as u32,
                 mode: [Mode::Idle, Mode::Running, Mode::Fault][i % 3],
                 fault_latched: i % 2 == 0,
-                amplitude_limited: (i % 5 == 0) as u8,
-                rate_limited: (i % 7 == 0) as u8,
+                amplitude_limited: ((i % 5 == 0) as u8) << ch,
+                rate_limited: ((i % 7 == 0) as u8) << ch,
             };
             let reference = encode_demand(
                 &LAYOUT,
                 &mil_frames::Demand {
-                    channel: 0,
+                    channel: ch as u8,
                     demand_n: *v,
                     counter: (i % 256) as u8,
                     flags: DemandFlags {
@@ -692,12 +711,17 @@ mod tests {
             );
             match reference {
                 Ok(f) => {
-                    assert_eq!(demand_frame(&d), f, "value {v:e} ({:#010x})", v.to_bits());
+                    assert_eq!(
+                        demand_frame(&d, ch),
+                        f,
+                        "value {v:e} ({:#010x})",
+                        v.to_bits()
+                    );
                     checked += 1;
                 }
                 Err(_) => {
                     assert!(!v.is_finite());
-                    assert_eq!(demand_frame(&d), safe_demand_frame((i % 256) as u8));
+                    assert_eq!(demand_frame(&d, ch), safe_demand_frame(ch, (i % 256) as u8));
                 }
             }
         }
@@ -708,7 +732,7 @@ mod tests {
     fn safe_frame_and_nan_never_sent() {
         let _turn = crate::calibration::test_lock();
         let mut app = Application::new(256).unwrap();
-        let f = safe_demand_frame(3);
+        let f = safe_demand_frame(0, 3);
         let Ok(Message::Demand(d)) = decode(&LAYOUT, &f) else {
             panic!("not a demand");
         };
@@ -716,26 +740,27 @@ mod tests {
         assert!(d.flags.fault_latched);
         // A tuned safe demand is the one the fatal path sends.
         let mut p = *app.params();
-        p.safe_demand = [2500.0];
-        let prepared = crate::config::Prepared::new(&p, crate::config::DT).unwrap();
+        p.safe_demand = [2500.0, 0.0, 0.0, 0.0];
+        let prepared = p.prepare(crate::config::DT).unwrap();
         let settings = crate::calibration::DEFAULT_SETTINGS;
         assert_eq!(app.install(prepared, settings), crate::params::code::OK);
-        let Ok(Message::Demand(d)) = decode(&LAYOUT, &safe_demand_frame(4)) else {
+        let Ok(Message::Demand(d)) = decode(&LAYOUT, &safe_demand_frame(0, 4)) else {
             panic!("not a demand");
         };
         assert!((d.demand_n - 2500.0).abs() < 0.1, "{d:?}");
         let defaults = Application::new(256).unwrap();
-        let reset = crate::config::Prepared::new(defaults.params(), crate::config::DT).unwrap();
+        let reset = defaults.params().prepare(crate::config::DT).unwrap();
         assert_eq!(app.install(reset, settings), crate::params::code::OK);
         let nan = Demand {
-            force_n: [f32::NAN],
+            force_n: [f32::NAN; crate::config::CHANNELS],
+            channels: 1,
             counter: 3,
             mode: Mode::Running,
             fault_latched: false,
             amplitude_limited: 0,
             rate_limited: 0,
         };
-        assert_eq!(demand_frame(&nan), f);
+        assert_eq!(demand_frame(&nan, 0), f);
     }
 
     proptest::proptest! {

@@ -350,11 +350,11 @@ mod qemu {
         pub store_flash: StoreFlash,
     }
 
-    /// The QEMU build's calibration storage: 2 pages of 1 KB in RAM.
-    pub type StoreFlash = mil_firmware::store::RamFlash<2, 1024>;
+    /// The QEMU build's calibration storage: 2 pages of 4 KB in RAM.
+    pub type StoreFlash = mil_firmware::store::RamFlash<2, 4096>;
 
     /// Its range: all of it.
-    pub const STORE_RANGE: core::ops::Range<u32> = 0..2048;
+    pub const STORE_RANGE: core::ops::Range<u32> = 0..8192;
 
     /// Clocks (HSI), the control-path clock (TIM5), USART1 and TIM2. `None` if a peripheral
     /// refuses its configuration.

@@ -26,7 +26,7 @@ use embedded_storage_async::nor_flash::{
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
 
-use crate::calibration::{self, meas, Source, ITEMS, SLOTS};
+use crate::calibration::{self, meas, Source, SLOTS};
 
 /// The record's format tag: "MIL" and format version 1.
 pub const FORMAT: u32 = u32::from_le_bytes(*b"MIL\x01");
@@ -91,15 +91,25 @@ pub enum StoreError {
     Running = 4,
 }
 
-/// The fingerprint of the page layout: CRC-32 of every slot's name, parameter index and kind.
+/// The fingerprint of the page layout: CRC-32 of every slot's name (group, name and
+/// indices) and kind, in slot order.
 pub fn layout_id() -> u32 {
-    let mut h = crc32fast::Hasher::new();
-    for item in &ITEMS {
-        h.update(item.name.as_bytes());
-        h.update(&item.index.to_le_bytes());
-        h.update(&[item.kind as u8]);
+    struct Hash(crc32fast::Hasher);
+    impl core::fmt::Write for Hash {
+        fn write_str(&mut self, s: &str) -> core::fmt::Result {
+            self.0.update(s.as_bytes());
+            Ok(())
+        }
     }
-    h.finalize()
+    let mut h = Hash(crc32fast::Hasher::new());
+    for slot in 0..SLOTS {
+        if let Some(item) = calibration::item(slot) {
+            use core::fmt::Write as _;
+            let _ = write!(h, "{item};");
+            h.0.update(&[item.kind as u8]);
+        }
+    }
+    h.0.finalize()
 }
 
 /// The record of `words`.
@@ -416,15 +426,15 @@ mod tests {
     use crate::config::default_params;
     use std::vec::Vec;
 
-    type Flash = RamFlash<4, 1024>;
+    type Flash = RamFlash<4, 4096>;
 
     fn store(flash: Flash) -> Store<Flash> {
-        Store::new(flash, 0..4096).expect("range")
+        Store::new(flash, 0..16384).expect("range")
     }
 
     fn page(stiffness: f32) -> [u32; SLOTS] {
         let mut p = default_params();
-        p.model.tyre[0].stiffness = stiffness;
+        p.tyre.tyre[0].stiffness = stiffness;
         page_values(&p, &DEFAULT_SETTINGS).map(f32::to_bits)
     }
 
@@ -475,7 +485,7 @@ mod tests {
         bad[SLOT_WATCHDOG] = 0.5f32.to_bits();
         let mut map = MapStorage::<u8, _, _>::new(
             Flash::new(),
-            MapConfig::new(0..4096),
+            MapConfig::new(0..16384),
             Cache::new_uncached(),
         );
         let mut buffer = [0u8; BUFFER_BYTES];
@@ -483,7 +493,7 @@ mod tests {
         complete(map.store_item(&mut buffer, &KEY, &&record[..]))
             .expect("completes")
             .expect("stored");
-        let mut s = Store::new(map.destroy().0, 0..4096).expect("range");
+        let mut s = Store::new(map.destroy().0, 0..16384).expect("range");
         assert_eq!(complete(s.load()), Some(Loaded::Stored(bad)));
         let mut app = crate::application::Application::new(256).expect("app");
         assert_eq!(complete(boot(&mut app, &mut s)), Some(Source::Refused));

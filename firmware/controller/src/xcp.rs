@@ -25,9 +25,7 @@ use mil_frames::RawFrame;
 use mil_xcp::{Calibration, Memory, Page, Platform, Region, Rejected, SlaveConfig, StoreRefused};
 
 use crate::application::{Application, Command};
-use crate::calibration::{
-    self, meas, Settings, MEASUREMENTS, MEASUREMENT_BYTES, PAGE_BYTES, REFERENCE,
-};
+use crate::calibration::{self, meas, Settings, MEASUREMENTS, MEASUREMENT_BYTES, PAGE_BYTES};
 use crate::config::{Prepared, SAMPLE_RATE_HZ, XCP_ID, XCP_RESPONSE_ID};
 use crate::params::code;
 
@@ -163,6 +161,7 @@ pub fn rejection_code(r: Rejected) -> u8 {
         Rejected::OutOfRange => code::OUT_OF_RANGE,
         Rejected::Unstable => code::UNSTABLE,
         Rejected::Inconsistent => code::INCONSISTENT,
+        Rejected::NotNow => code::WRONG_MODE,
     }
 }
 
@@ -200,6 +199,7 @@ pub fn rejection(c: u8) -> Rejected {
         code::NOT_FINITE => Rejected::NotFinite,
         code::UNSTABLE => Rejected::Unstable,
         code::INCONSISTENT => Rejected::Inconsistent,
+        code::WRONG_MODE => Rejected::NotNow,
         _ => Rejected::OutOfRange,
     }
 }
@@ -334,7 +334,10 @@ impl<A: AppAccess> Calibration for Target<A> {
 
     fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
         let mut bytes = [0u8; PAGE_BYTES];
-        for (chunk, word) in bytes.chunks_exact_mut(4).zip(REFERENCE.iter()) {
+        for (chunk, word) in bytes
+            .chunks_exact_mut(4)
+            .zip(calibration::reference_words())
+        {
             chunk.copy_from_slice(&word.to_le_bytes());
         }
         noted(self.write_page(0, &bytes).map_err(rejection))
@@ -371,8 +374,7 @@ impl<A: AppAccess> Target<A> {
     /// The working page with `data` written at byte `offset`, validated as a whole page
     /// (CommandAck code of the refusal). Changes nothing.
     fn validate(&self, offset: usize, data: &[u8]) -> Result<calibration::Accepted, u8> {
-        let (base, settings) = calibration::decode_page(&calibration::working_words())?;
-        calibration::validate_write(base.params(), &settings, offset, data)
+        calibration::validate_write(&calibration::working_words(), offset, data)
     }
 
     /// Makes a validated change: while the controller runs the working page the new set is
@@ -392,7 +394,7 @@ impl<A: AppAccess> Target<A> {
     fn select_page(&mut self, page: Page) -> Result<(), u8> {
         let words = match page {
             Page::Working => calibration::working_words(),
-            Page::Reference => REFERENCE,
+            Page::Reference => calibration::reference_words(),
         };
         let (prepared, settings) = calibration::decode_page(&words)?;
         self.install(prepared, settings)?;
@@ -404,16 +406,26 @@ impl<A: AppAccess> Target<A> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::SLOT_STATUS_PERIOD;
     use crate::calibration::{test_lock, MEASUREMENT_BYTES, PAGE_BYTES};
-    use crate::config::{Prepared, TYRE, XCP_RESPONSE_ID};
-    use crate::params::INDEX_STATUS_PERIOD;
+    use crate::config::{TYRE, XCP_RESPONSE_ID};
     use mil_xcp::mock::{MockPlatform, TEST_SECRET};
     use mil_xcp::{compute_key, Region, Responses, Slave, SlaveConfig};
     use std::vec;
     use std::vec::Vec;
 
     const CAL: u32 = 0x2000_0100;
-    const MEAS: u32 = 0x2000_0400;
+
+    /// The address of the calibration item named `name` (the A2L's name).
+    fn at(name: &str) -> u32 {
+        CAL + 4 * calibration::slot_named(name).expect("an item") as u32
+    }
+
+    /// The Command-frame index of the item named `name`.
+    fn index(name: &str) -> u16 {
+        calibration::slot_named(name).expect("an item") as u16
+    }
+    const MEAS: u32 = 0x2000_2000;
 
     fn slave() -> Slave {
         Slave::new(SlaveConfig {
@@ -494,21 +506,24 @@ mod tests {
         let _turn = test_lock();
         let mut s = Session::new();
         s.connect_and_unlock();
-        // Tyre damping (slot 1): 500 → 800 N s/m.
-        assert_eq!(s.upload_f32(CAL + 4), TYRE.damping);
-        assert_eq!(s.download_f32(CAL + 4, 800.0), [0xFF]);
-        assert_eq!(s.target.app.params().model.tyre[0].damping, 800.0);
-        assert_eq!(s.upload_f32(CAL + 4), 800.0);
+        // Tyre damping: 500 → 800 N s/m.
+        assert_eq!(s.upload_f32(at("tyre_damping_0")), TYRE.damping);
+        assert_eq!(s.download_f32(at("tyre_damping_0"), 800.0), [0xFF]);
+        assert_eq!(s.target.app.params().tyre.tyre[0].damping, 800.0);
+        assert_eq!(s.upload_f32(at("tyre_damping_0")), 800.0);
         // NaN, out of range, inconsistent (minimum above maximum), outside the page: refused
         // with the XCP error, nothing changes.
         let before = *s.target.app.params();
-        assert_eq!(s.download_f32(CAL + 4, f32::NAN), [0xFE, 0x22]);
-        assert_eq!(s.download_f32(CAL, -5.0), [0xFE, 0x22]);
-        assert_eq!(s.download_f32(CAL + 20, 50_000.0), [0xFE, 0x31]);
+        assert_eq!(s.download_f32(at("tyre_damping_0"), f32::NAN), [0xFE, 0x22]);
+        assert_eq!(s.download_f32(at("tyre_stiffness_0"), -5.0), [0xFE, 0x22]);
+        assert_eq!(
+            s.download_f32(at("limits_demand_min_0"), 50_000.0),
+            [0xFE, 0x31]
+        );
         assert_eq!(s.slave.last_rejection(), Some(Rejected::Inconsistent));
         assert_eq!(s.download_f32(CAL + PAGE_BYTES as u32, 1.0)[0], 0xFE);
         assert_eq!(*s.target.app.params(), before);
-        assert_eq!(s.upload_f32(CAL + 4), 800.0);
+        assert_eq!(s.upload_f32(at("tyre_damping_0")), 800.0);
         // The status period (a firmware setting) goes through the same path.
         assert_eq!(
             s.download_f32(CAL + 4 * calibration::SLOT_STATUS_PERIOD as u32, 50.0),
@@ -517,7 +532,7 @@ mod tests {
         assert_eq!(s.target.app.status_period(), 50);
         // Back to the defaults for the other tests.
         assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
-        assert_eq!(s.target.app.params().model.tyre[0].damping, TYRE.damping);
+        assert_eq!(s.target.app.params().tyre.tyre[0].damping, TYRE.damping);
         assert_eq!(s.target.app.status_period(), 200);
     }
 
@@ -526,25 +541,22 @@ mod tests {
         let _turn = test_lock();
         let mut s = Session::new();
         s.connect_and_unlock();
-        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
-        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        assert_eq!(s.download_f32(at("tyre_stiffness_0"), 3.0e5), [0xFF]);
+        assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, 3.0e5);
         // ECU → reference page (mode 0x01, segment 0, page 1): the defaults run.
         assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01]), [0xFF]);
-        assert_eq!(
-            s.target.app.params().model.tyre[0].stiffness,
-            TYRE.stiffness
-        );
+        assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, TYRE.stiffness);
         // A change to the working page waits there.
-        assert_eq!(s.download_f32(CAL + 4, 900.0), [0xFF]);
-        assert_eq!(s.target.app.params().model.tyre[0].damping, TYRE.damping);
+        assert_eq!(s.download_f32(at("tyre_damping_0"), 900.0), [0xFF]);
+        assert_eq!(s.target.app.params().tyre.tyre[0].damping, TYRE.damping);
         // XCP reads of the reference page (XCP access page 1) show the defaults.
         assert_eq!(s.send(&[0xEB, 0x02, 0x00, 0x01]), [0xFF]);
-        assert_eq!(s.upload_f32(CAL), TYRE.stiffness);
+        assert_eq!(s.upload_f32(at("tyre_stiffness_0")), TYRE.stiffness);
         // Writes through the reference page are refused (write protected).
-        assert_eq!(s.download_f32(CAL, 1.0), [0xFE, 0x23]);
+        assert_eq!(s.download_f32(at("tyre_stiffness_0"), 1.0), [0xFE, 0x23]);
         // ECU and XCP back to the working page: the prepared set runs.
         assert_eq!(s.send(&[0xEB, 0x83, 0x00, 0x00]), [0xFF]);
-        let tyre = s.target.app.params().model.tyre[0];
+        let tyre = s.target.app.params().tyre.tyre[0];
         assert_eq!((tyre.stiffness, tyre.damping), (3.0e5, 900.0));
         assert_eq!(s.send(&[0xE4, 0, 1, 0, 0]), [0xFF]);
     }
@@ -582,6 +594,7 @@ mod tests {
             let settings = Settings {
                 status_period: a.status_period(),
                 watchdog: a.watchdog().limit,
+                sample_rate_hz: a.sample_rate_hz(),
             };
             (*a.params(), settings)
         }
@@ -592,7 +605,7 @@ mod tests {
             assert_eq!(r[0], 0xFF, "GET_CAL_PAGE {r:02X?}");
             match r[3] {
                 0 => calibration::working_words(),
-                _ => REFERENCE,
+                _ => calibration::reference_words(),
             }
         }
 
@@ -617,16 +630,19 @@ mod tests {
         let _turn = test_lock();
         let mut s = Session::new();
         s.connect_and_unlock();
-        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        assert_eq!(s.download_f32(at("tyre_stiffness_0"), 3.0e5), [0xFF]);
         assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01]), [0xFF]);
         assert_eq!(s.command(Command::ClearFault), code::WRONG_MODE);
         assert_eq!(s.command(Command::Start), code::OK);
         assert_eq!(s.command(Command::Stop), code::OK);
-        assert_eq!(f32::from_bits(calibration::working_words()[0]), 3.0e5);
+        assert_eq!(
+            f32::from_bits(calibration::working_words()[usize::from(index("tyre_stiffness_0"))]),
+            3.0e5
+        );
         s.assert_runs_the_named_page();
         // Back on the working page, the prepared value runs.
         assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x00]), [0xFF]);
-        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, 3.0e5);
         s.assert_runs_the_named_page();
         s.restore();
     }
@@ -641,12 +657,12 @@ mod tests {
         assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01]), [0xFF]);
         let before = (s.running(), calibration::working_words());
         let write = Command::SetParam {
-            index: 1,
+            index: index("tyre_damping_0"),
             value: 900.0,
         };
         assert_eq!(s.command(write), code::REFERENCE_PAGE);
         let status = Command::SetParam {
-            index: INDEX_STATUS_PERIOD,
+            index: SLOT_STATUS_PERIOD as u16,
             value: 20.0,
         };
         assert_eq!(s.command(status), code::REFERENCE_PAGE);
@@ -655,7 +671,10 @@ mod tests {
         // On the working page the same write is one transaction on that page.
         assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x00]), [0xFF]);
         assert_eq!(s.command(write), code::OK);
-        assert_eq!(f32::from_bits(calibration::working_words()[1]), 900.0);
+        assert_eq!(
+            f32::from_bits(calibration::working_words()[usize::from(index("tyre_damping_0"))]),
+            900.0
+        );
         s.assert_runs_the_named_page();
         s.restore();
     }
@@ -671,7 +690,7 @@ mod tests {
         s.target.app.switch_watchdog_off();
         s.target.app.mirror_to_working_page();
         s.connect_and_unlock();
-        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        assert_eq!(s.download_f32(at("tyre_stiffness_0"), 3.0e5), [0xFF]);
         let before = (s.running(), calibration::working_words());
         // SET_CAL_PAGE, ECU → reference (its watchdog slot says N): refused.
         assert_eq!(s.send(&[0xEB, 0x01, 0x00, 0x01])[0], 0xFE);
@@ -693,7 +712,7 @@ mod tests {
         let mut s = Session::new();
         let before = s.running();
         let stiffness = Command::SetParam {
-            index: 0,
+            index: index("tyre_stiffness_0"),
             value: 3.0e5,
         };
         // Not connected, then connected but locked.
@@ -709,7 +728,7 @@ mod tests {
         assert_eq!(s.command(Command::SetWatchdog { seconds: 0.002 }), code::OK);
         assert_eq!(s.target.app.watchdog().limit, 4);
         let status = Command::SetParam {
-            index: INDEX_STATUS_PERIOD,
+            index: SLOT_STATUS_PERIOD as u16,
             value: 20.0,
         };
         assert_eq!(s.command(status), code::OK);
@@ -717,13 +736,13 @@ mod tests {
         // Unlocked: the write is made, on the working page.
         s.connect_and_unlock();
         assert_eq!(s.command(stiffness), code::OK);
-        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, 3.0e5);
         s.assert_runs_the_named_page();
         // A disconnect locks it again.
         assert_eq!(s.send(&[0xFE]), [0xFF]);
         assert_eq!(
             s.command(Command::SetParam {
-                index: 0,
+                index: index("tyre_stiffness_0"),
                 value: 2.0e5
             }),
             code::LOCKED
@@ -742,14 +761,14 @@ mod tests {
         use crate::calibration::Source;
         use crate::store::{self, complete, RamFlash, Store};
         let _turn = test_lock();
-        let mut flash = Store::new(RamFlash::<4, 1024>::new(), 0..4096).expect("range");
+        let mut flash = Store::new(RamFlash::<4, 4096>::new(), 0..16384).expect("range");
         let mut s = Session::new();
         assert_eq!(
             complete(store::boot(&mut s.target.app, &mut flash)),
             Some(Source::Defaults)
         );
         s.connect_and_unlock();
-        assert_eq!(s.download_f32(CAL, 3.0e5), [0xFF]);
+        assert_eq!(s.download_f32(at("tyre_stiffness_0"), 3.0e5), [0xFF]);
         assert_eq!(
             s.download_f32(CAL + 4 * calibration::SLOT_STATUS_PERIOD as u32, 20.0),
             [0xFF]
@@ -787,7 +806,7 @@ mod tests {
             Some(Source::Stored)
         );
         assert_eq!(calibration::working_words(), stored);
-        assert_eq!(s.target.app.params().model.tyre[0].stiffness, 3.0e5);
+        assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, 3.0e5);
         assert_eq!(s.target.app.status_period(), 20);
         assert_eq!(
             s.target.app.status().calibration_source,
@@ -805,29 +824,26 @@ mod tests {
 
         // A record of another layout (a flash written by another firmware): the defaults,
         // and the source says the stored page was refused.
-        let mut other = Store::new(RamFlash::<4, 1024>::new(), 0..4096).expect("range");
+        let mut other = Store::new(RamFlash::<4, 4096>::new(), 0..16384).expect("range");
         let mut record = store::encode(&stored);
         record[4] ^= 0x5A;
-        let mut buffer = [0u8; 192];
+        let mut buffer = [0u8; store::RECORD_BYTES + 64];
         let mut map = sequential_storage::map::MapStorage::<u8, _, _>::new(
             other.into_flash(),
-            sequential_storage::map::MapConfig::new(0..4096),
+            sequential_storage::map::MapConfig::new(0..16384),
             sequential_storage::cache::Cache::new_uncached(),
         );
         complete(map.store_item(&mut buffer, &0u8, &&record[..]))
             .expect("completes")
             .expect("stored");
-        other = Store::new(map.destroy().0, 0..4096).expect("range");
+        other = Store::new(map.destroy().0, 0..16384).expect("range");
         s.restore();
         let mut s = Session::new();
         assert_eq!(
             complete(store::boot(&mut s.target.app, &mut other)),
             Some(Source::Refused)
         );
-        assert_eq!(
-            s.target.app.params().model.tyre[0].stiffness,
-            TYRE.stiffness
-        );
+        assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, TYRE.stiffness);
         assert_eq!(
             calibration::measurement_words()[meas::CAL_SOURCE],
             Source::Refused as u32
@@ -861,7 +877,11 @@ mod tests {
         sample.read_measurement(4 * meas::POSITION, &mut pos);
         assert_eq!(f32::from_le_bytes(pos), -1.0e-3);
         let mut k = [0u8; 4];
-        sample.read_calibration(Page::Reference, 0, &mut k);
+        sample.read_calibration(
+            Page::Reference,
+            (at("tyre_stiffness_0") - CAL) as usize,
+            &mut k,
+        );
         assert_eq!(f32::from_le_bytes(k), TYRE.stiffness);
         // The platform's clock is the same step time.
         let platform = StepPlatform::new(|| 7);
@@ -879,12 +899,15 @@ mod tests {
         let mut s = Session::new();
         s.connect_and_unlock();
         let changes = calibration::measurement_words()[meas::CAL_CHANGES];
-        assert_eq!(s.download_f32(CAL + 4, 700.0), [0xFF]);
+        assert_eq!(s.download_f32(at("tyre_damping_0"), 700.0), [0xFF]);
         assert_eq!(
             calibration::measurement_words()[meas::CAL_CHANGES],
             changes + 1
         );
-        assert_eq!(s.download_f32(CAL + 4, f32::INFINITY), [0xFE, 0x22]);
+        assert_eq!(
+            s.download_f32(at("tyre_damping_0"), f32::INFINITY),
+            [0xFE, 0x22]
+        );
         let w = calibration::measurement_words();
         assert_eq!(w[meas::CAL_CHANGES], changes + 1);
         assert_eq!(w[meas::CAL_REJECTION], u32::from(code::NOT_FINITE));
@@ -896,11 +919,11 @@ mod tests {
         let _turn = test_lock();
         let mut s = Session::new();
         s.connect_and_unlock();
-        // Sections = 1 and section 0 (slots 10..=15, 24 bytes) in one block: DOWNLOAD with
-        // 6 bytes, then DOWNLOAD_NEXT frames.
+        // Sections = 1 and section 0 of channel 0 (6 slots, 24 bytes) in one block:
+        // DOWNLOAD with 6 bytes, then DOWNLOAD_NEXT frames.
         let vals = [1.0f32, 0.0, 0.0, 0.01, 0.2, 0.01];
         let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
-        s.set_mta(CAL + 40);
+        s.set_mta(at("filter_sections_0"));
         let mut first = vec![0xF0, 24];
         first.extend_from_slice(&bytes[..6]);
         assert!(s.send(&first).is_empty(), "block start: no answer");
@@ -1086,10 +1109,10 @@ mod tests {
                     s.connect_and_unlock();
                 }
                 let running = *s.target.app.params();
-                proptest::prop_assert!(Prepared::new(&running, crate::config::DT).is_ok());
+                proptest::prop_assert!(running.prepare(crate::config::DT).is_ok());
                 let page = match s.target.ecu_page() {
                     Page::Working => calibration::working_words(),
-                    Page::Reference => REFERENCE,
+                    Page::Reference => calibration::reference_words(),
                 };
                 let (expected, _) = calibration::decode_page(&page).expect("the ECU page is valid");
                 proptest::prop_assert_eq!(expected.params(), &running);

@@ -41,7 +41,9 @@ impl Page {
 ///
 /// XCP error answered ([`Rejected::xcp_error`]): a value problem (`NotFinite`, `OutOfRange`)
 /// answers `ERR_OUT_OF_RANGE` (0x22), a problem of the set as a whole (`Unstable`,
-/// `Inconsistent`) answers `ERR_GENERIC` (0x31). The reason itself is kept by the slave
+/// `Inconsistent`) answers `ERR_GENERIC` (0x31), a change the application takes only in
+/// another state (`NotNow`, e.g. another model while the controller runs) answers
+/// `ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE` (0x33). The reason itself is kept by the slave
 /// ([`Slave::last_rejection`](crate::Slave::last_rejection)) for the firmware's status field,
 /// as [`Rejected::code`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -55,10 +57,13 @@ pub enum Rejected {
     Unstable = 3,
     /// The values are individually valid but contradict each other.
     Inconsistent = 4,
+    /// The change is valid but not possible in the application's present state (e.g. the
+    /// model changes while the controller runs): retry when it allows.
+    NotNow = 5,
 }
 
 impl Rejected {
-    /// Stable code for status fields (1..=4; 0 is "none").
+    /// Stable code for status fields (1..=5; 0 is "none").
     #[must_use]
     pub const fn code(self) -> u8 {
         self as u8
@@ -70,6 +75,7 @@ impl Rejected {
         match self {
             Self::NotFinite | Self::OutOfRange => ErrorCode::OutOfRange,
             Self::Unstable | Self::Inconsistent => ErrorCode::Generic,
+            Self::NotNow => ErrorCode::ResourceTemporaryNotAccessible,
         }
     }
 }

@@ -15,10 +15,10 @@ use crate::memory::{Calibration, Memory, Page, Platform, Rejected, StoreRefused}
 
 /// Start of the mock's calibration region.
 pub const CAL_START: u32 = 0x2000_0000;
-/// Length of the calibration region (64 `f32` parameters).
-pub const CAL_LEN: usize = 256;
+/// Length of the calibration region (1024 `f32` parameters: room for the MiL board's page).
+pub const CAL_LEN: usize = 4096;
 /// Start of the mock's measurement region.
-pub const MEAS_START: u32 = 0x2000_1000;
+pub const MEAS_START: u32 = 0x2000_2000;
 /// Length of the measurement region.
 pub const MEAS_LEN: usize = 256;
 /// Guard bytes before and after each region in the image.

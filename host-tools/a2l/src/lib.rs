@@ -26,7 +26,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use mil_firmware::calibration::{
-    CalItem, MeasItem, ITEMS, MEASUREMENT_BYTES, MEAS_ITEMS, PAGE_BYTES,
+    item, CalItem, MeasItem, MEASUREMENT_BYTES, MEAS_ITEMS, PAGE_BYTES, SLOTS,
 };
 use object::{Object, ObjectSymbol};
 
@@ -166,10 +166,11 @@ pub fn measurement_address(layout: &Layout, slot: usize) -> u32 {
 /// The A2L text for `layout` (see the crate documentation); `version` goes into the header
 /// (e.g. the firmware's version and commit).
 pub fn generate(layout: &Layout, version: &str) -> String {
+    let items: Vec<(usize, CalItem)> = (0..SLOTS).filter_map(|s| item(s).map(|i| (s, i))).collect();
     let mut units: BTreeMap<String, &str> = BTreeMap::new();
-    for unit in ITEMS
+    for unit in items
         .iter()
-        .map(|i| i.unit)
+        .map(|(_, i)| i.unit)
         .chain(MEAS_ITEMS.iter().map(|m| m.unit))
     {
         units.insert(compu_method_name(unit), unit);
@@ -179,7 +180,7 @@ pub fn generate(layout: &Layout, version: &str) -> String {
     let _ = writeln!(w, "ASAP2_VERSION 1 71");
     let _ = writeln!(
         w,
-        "/begin PROJECT mil \"Model-in-the-loop board: tyre model on one hub actuator\""
+        "/begin PROJECT mil \"Model-in-the-loop board: tyre (1-4 hubs), aero (2 channels) or substructure (1-4 channels), chosen by model_kind\""
     );
     let _ = writeln!(
         w,
@@ -219,9 +220,10 @@ pub fn generate(layout: &Layout, version: &str) -> String {
         w,
         "    /begin RECORD_LAYOUT rl_float32\n      FNC_VALUES 1 FLOAT32_IEEE COLUMN_DIR DIRECT\n    /end RECORD_LAYOUT"
     );
-    for (slot, item) in ITEMS.iter().enumerate() {
-        characteristic(w, layout, slot, item);
+    for (slot, item) in &items {
+        characteristic(w, layout, *slot, item);
     }
+    groups(w, &items);
     for (slot, item) in MEAS_ITEMS.iter().enumerate() {
         measurement(w, layout, slot, item);
     }
@@ -372,11 +374,36 @@ pub fn xcp_interface() -> String {
     w
 }
 
+/// One GROUP per item group (the settings and model selection, each model's parameters,
+/// the filters, the limits), so that a calibration tool shows the page by model.
+fn groups(w: &mut String, items: &[(usize, CalItem)]) {
+    let mut by_group: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+    for (_, item) in items {
+        let group = if item.group.is_empty() {
+            "configuration"
+        } else {
+            item.group
+        };
+        by_group.entry(group).or_default().push(item.to_string());
+    }
+    for (group, names) in by_group {
+        let _ = writeln!(
+            w,
+            "    /begin GROUP {group} {}\n      /begin REF_CHARACTERISTIC",
+            quoted(&format!("{group} parameters"))
+        );
+        for name in names {
+            let _ = writeln!(w, "        {name}");
+        }
+        let _ = writeln!(w, "      /end REF_CHARACTERISTIC\n    /end GROUP");
+    }
+}
+
 fn characteristic(w: &mut String, layout: &Layout, slot: usize, item: &CalItem) {
     let _ = writeln!(
         w,
         "    /begin CHARACTERISTIC {} {}\n      VALUE 0x{:08X} rl_float32 0 {} {} {}\n      PHYS_UNIT {}\n    /end CHARACTERISTIC",
-        item.name,
+        item,
         quoted(item.description),
         characteristic_address(layout, slot),
         compu_method_name(item.unit),

@@ -7,7 +7,7 @@
 //! ELF holds them once the XCP path uses them).
 
 use mil_a2l::{generate, layout, Error, Layout};
-use mil_firmware::calibration::{ITEMS, MEASUREMENT_BYTES, MEAS_ITEMS, PAGE_BYTES};
+use mil_firmware::calibration::{item, MEASUREMENT_BYTES, MEAS_ITEMS, PAGE_BYTES, SLOTS};
 use object::write::{Object, StandardSection, Symbol, SymbolSection};
 use object::{Architecture, BinaryFormat, Endianness, SymbolFlags, SymbolKind, SymbolScope};
 
@@ -38,7 +38,7 @@ fn elf(symbols: &[(&str, u64, u64)]) -> Vec<u8> {
 fn firmware_like_elf() -> Vec<u8> {
     elf(&[
         (WORKING, 0x2000_0100, PAGE_BYTES as u64),
-        (MEASUREMENT, 0x2000_0400, MEASUREMENT_BYTES as u64),
+        (MEASUREMENT, 0x2000_2000, MEASUREMENT_BYTES as u64),
         // Unrelated symbols are ignored.
         ("_ZN4core3fmt5write17h1111111111111111E", 0x0800_1000, 0x40),
     ])
@@ -48,23 +48,39 @@ fn firmware_like_elf() -> Vec<u8> {
 fn every_address_and_limit_matches_the_elf_and_the_tables() {
     let l: Layout = layout(&firmware_like_elf()).expect("layout");
     assert_eq!(l.calibration.address, 0x2000_0100);
-    assert_eq!(l.measurement.address, 0x2000_0400);
+    assert_eq!(l.measurement.address, 0x2000_2000);
     let text = generate(&l, "test");
     let (a2l, log) = a2lfile::load_from_string(&text, None, true)
         .unwrap_or_else(|e| panic!("a2lfile refuses the generated file: {e}\n{text}"));
     assert!(log.is_empty(), "parser warnings: {log:?}");
     let module = &a2l.project.module[0];
-    assert_eq!(module.characteristic.len(), ITEMS.len());
+    assert_eq!(module.characteristic.len(), SLOTS);
     assert_eq!(module.measurement.len(), MEAS_ITEMS.len());
-    for (slot, item) in ITEMS.iter().enumerate() {
+    for slot in 0..SLOTS {
+        let item = item(slot).unwrap();
+        let name = item.to_string();
         let c = module
             .characteristic
-            .get(item.name)
-            .unwrap_or_else(|| panic!("characteristic {} missing", item.name));
-        assert_eq!(c.address, 0x2000_0100 + 4 * slot as u32, "{}", item.name);
-        assert_eq!(c.lower_limit, f64::from(item.min), "{}", item.name);
-        assert_eq!(c.upper_limit, f64::from(item.max), "{}", item.name);
+            .get(&name)
+            .unwrap_or_else(|| panic!("characteristic {name} missing"));
+        assert_eq!(c.address, 0x2000_0100 + 4 * slot as u32, "{name}");
+        assert_eq!(c.lower_limit, f64::from(item.min), "{name}");
+        assert_eq!(c.upper_limit, f64::from(item.max), "{name}");
         assert_eq!(c.long_identifier, item.description);
+    }
+    // Grouped by model, the configuration (model kind, channels, rate) first.
+    use a2lfile::A2lObjectName;
+    let groups: Vec<&str> = module.group.iter().map(|g| g.get_name()).collect();
+    for g in [
+        "configuration",
+        "tyre",
+        "aero",
+        "substructure",
+        "element",
+        "filter",
+        "limits",
+    ] {
+        assert!(groups.contains(&g), "group {g} missing: {groups:?}");
     }
     for (slot, item) in MEAS_ITEMS.iter().enumerate() {
         let m = module
@@ -74,7 +90,7 @@ fn every_address_and_limit_matches_the_elf_and_the_tables() {
         let address = m.ecu_address.as_ref().map(|a| a.address);
         assert_eq!(
             address,
-            Some(0x2000_0400 + 4 * slot as u32),
+            Some(0x2000_2000 + 4 * slot as u32),
             "{}",
             item.name
         );
@@ -115,7 +131,7 @@ fn every_address_and_limit_matches_the_elf_and_the_tables() {
         "{spans:?}"
     );
     assert!(
-        spans.contains(&(0x2000_0400, MEASUREMENT_BYTES as u32)),
+        spans.contains(&(0x2000_2000, MEASUREMENT_BYTES as u32)),
         "{spans:?}"
     );
 }
@@ -129,7 +145,7 @@ fn a_missing_or_resized_symbol_is_refused() {
     ));
     let resized = elf(&[
         (WORKING, 0x2000_0100, PAGE_BYTES as u64 - 4),
-        (MEASUREMENT, 0x2000_0400, MEASUREMENT_BYTES as u64),
+        (MEASUREMENT, 0x2000_2000, MEASUREMENT_BYTES as u64),
     ]);
     assert!(matches!(
         layout(&resized),

@@ -14,7 +14,7 @@
 //!    not follow the host's clock while the guest waits. The firmware times its control
 //!    path with TIM5, which QEMU clocks at 1 GHz of virtual time: one count per instruction.
 //!    QEMU counts instructions, not cycles (no pipeline, flash wait states or FPU latency).
-//! 3. Switches the firmware's communication watchdog off (parameter 101 = 0, accepted by the
+//! 3. Switches the firmware's communication watchdog off (parameter `watchdog_limit` = 0, accepted by the
 //!    QEMU build only): under `sleep=off` virtual time jumps from timer deadline to timer
 //!    deadline while the guest waits for the host, so its ticks would trip between samples.
 //! 4. Drives the paper's tyre example (the simulated hub rig, `mil-rig`) through N samples
@@ -46,8 +46,8 @@ use std::time::{Duration, Instant};
 
 use mil_can::footprint::{footprint, Footprint};
 use mil_can::{find_firmware_elf, Qemu, QemuOptions, RemoteBoard, SlcanTcp};
+use mil_firmware::calibration::SLOT_WATCHDOG;
 use mil_firmware::config::{TYRE, WATCHDOG_OFF};
-use mil_firmware::params::INDEX_WATCHDOG;
 use mil_frames::CommandKind;
 use mil_identify::band_limited_noise;
 use mil_rig::harness::{run, Instrumentation};
@@ -259,7 +259,7 @@ fn lockstep(
     let (qemu, link) = Qemu::spawn(elf, &options)
         .map_err(|e| format!("QEMU: {e} (install it: apt-get install -y qemu-system-arm)"))?;
     let mut board = RemoteBoard::new(link)?;
-    let index = u8::try_from(INDEX_WATCHDOG).map_err(|e| e.to_string())?;
+    let index = u8::try_from(SLOT_WATCHDOG).map_err(|e| e.to_string())?;
     let ack = board.command(CommandKind::SetParam, index, f32::from(WATCHDOG_OFF))?;
     if ack.result != 0 {
         return Err(format!(

@@ -287,12 +287,10 @@ impl<T: Transport> RemoteBoard<T> {
 
     /// The demand of the mirror for the decoded measurement, as a frame.
     fn mirror_step(&mut self, m: &mil_frames::Measurement) -> Result<RawFrame, String> {
-        let input = ModelInput {
-            position: [m.position_m],
-            road: [m.road_m],
-            ..ModelInput::default()
-        };
-        let [force] = self.mirror.step(&input);
+        let mut input = ModelInput::default();
+        input.position[0] = m.position_m;
+        input.road[0] = m.road_m;
+        let force = self.mirror.step(&input)[0];
         let s = self.mirror.status();
         encode_demand(
             &LAYOUT,

@@ -47,7 +47,7 @@ pub struct QemuOptions {
     /// With `icount_shift`: `false` adds `sleep=off` (virtual time no longer follows wall
     /// time while the guest waits: it jumps to the next timer deadline, so the instruction
     /// figures do not depend on host timing). The firmware's watchdog ticks would then
-    /// race and trip between lockstep samples: switch it off first (parameter 101 = 0,
+    /// race and trip between lockstep samples: switch it off first (parameter `watchdog_limit` = 0,
     /// accepted by the QEMU build only), as the `qemu_budget` example does. Default `true`.
     pub icount_sleep: bool,
     /// How long to wait for the TCP connection and the SLCAN handshake.

@@ -214,10 +214,14 @@ fn faults_are_contained() {
         (ack.command, ack.index, ack.result),
         (4, 1, mil_frames::DecodeError::NotFinite.code())
     );
-    // Status every 5 steps (parameter 100), to see COMM_TIMEOUT soon.
+    // Status every 5 steps (parameter 0, the status period), to see COMM_TIMEOUT soon.
     assert_eq!(
         board
-            .command(CommandKind::SetParam, 100, 5.0)
+            .command(
+                CommandKind::SetParam,
+                mil_firmware::calibration::SLOT_STATUS_PERIOD as u8,
+                5.0,
+            )
             .unwrap()
             .result,
         0

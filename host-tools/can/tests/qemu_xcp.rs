@@ -22,7 +22,7 @@ use mil_a2l::{generate, layout, symbols, MEASUREMENT_SYMBOL, WORKING_SYMBOL};
 use mil_can::{
     find_firmware_elf, Qemu, QemuOptions, SlcanTcp, Transport, FIRMWARE_BUILD_COMMAND, LAYOUT,
 };
-use mil_firmware::calibration::{ITEMS, MEAS_ITEMS, REFERENCE};
+use mil_firmware::calibration::{item, reference_words, MEAS_ITEMS, SLOTS};
 use mil_firmware::config::{TYRE, XCP_COMMAND_ID, XCP_RESPONSE_ID};
 use mil_frames::{
     decode, encode_command, encode_measurement, Command, CommandKind, Message, RawFrame,
@@ -163,9 +163,15 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
             .unwrap()
             .address
     };
-    for (slot, item) in ITEMS.iter().enumerate() {
-        let c = module.characteristic.get(item.name).unwrap();
-        assert_eq!(c.address, l.calibration.address + 4 * slot as u32);
+    let items: Vec<(usize, String, mil_firmware::calibration::CalItem)> = (0..SLOTS)
+        .map(|s| {
+            let i = item(s).unwrap();
+            (s, i.to_string(), i)
+        })
+        .collect();
+    for (slot, name, item) in &items {
+        let c = module.characteristic.get(name).unwrap();
+        assert_eq!(c.address, l.calibration.address + 4 * *slot as u32);
         assert_eq!(
             (c.lower_limit, c.upper_limit),
             (f64::from(item.min), f64::from(item.max))
@@ -203,7 +209,7 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
     assert_eq!(rig.xcp(&[0xFD]), None, "a wrong key disconnects");
     rig.ok(&[0xFF, 0x00]);
     // Locked: a download is refused.
-    let k = cal_address("tyre_stiffness");
+    let k = cal_address("tyre_stiffness_0");
     assert_eq!(rig.download_f32(k, 3.0e5), vec![0xFE, 0x25]);
     assert_eq!(rig.unlock(0x01, TEST_SECRET)[0], 0xFF);
     assert_eq!(rig.unlock(0x04, TEST_SECRET)[0], 0xFF);
@@ -233,12 +239,13 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
 
     // Uploads at the A2L addresses read the running values: the reference page's, but
     // for the watchdog limit just written.
-    for (slot, item) in ITEMS.iter().enumerate() {
-        let v = rig.upload_f32(cal_address(item.name));
-        if item.name == "watchdog_limit" {
+    let reference = reference_words();
+    for (slot, name, _) in &items {
+        let v = rig.upload_f32(cal_address(name));
+        if name == "watchdog_limit" {
             assert_eq!(v, 10_000.0);
         } else {
-            assert_eq!(v.to_bits(), REFERENCE[slot], "{}", item.name);
+            assert_eq!(v.to_bits(), reference[*slot], "{name}");
         }
     }
 
@@ -273,9 +280,9 @@ fn xcp_calibration_and_daq_on_the_running_firmware() {
 
     // Refusals: the XCP error, nothing changes.
     let cases: [(&str, f32, [u8; 2], u32); 3] = [
-        ("tyre_stiffness", f32::NAN, [0xFE, 0x22], 129),
-        ("tyre_stiffness", 1.0e12, [0xFE, 0x22], 130),
-        ("demand_min", 20_000.0, [0xFE, 0x31], 132),
+        ("tyre_stiffness_0", f32::NAN, [0xFE, 0x22], 129),
+        ("tyre_stiffness_0", 1.0e12, [0xFE, 0x22], 130),
+        ("limits_demand_min_0", 20_000.0, [0xFE, 0x31], 132),
     ];
     for (name, value, error, reason) in cases {
         assert_eq!(

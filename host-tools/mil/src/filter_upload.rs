@@ -3,9 +3,11 @@
 //!
 //! The file holds model-core's f32 delta-form sections (`β0 = b0`, `β1 = 2 b0 + b1`,
 //! `β2 = b0 + b1 + b2`, `α1 = 2 + a1`, `α2 = 1 + a1 + a2`), which is what the firmware's
-//! calibration page holds: `filter_sections` (the number of sections applied) and
-//! `filter_sK_beta0/beta1/beta2/alpha1/alpha2` for each section K of the A2L, one after
-//! another in memory. Sections the file does not use are written as model-core's
+//! calibration page holds for each channel C: `filter_sections_C` (the number of sections
+//! applied) and `filter_beta0_C_K`, `…_beta1_C_K`, `…_beta2_C_K`, `…_alpha1_C_K`,
+//! `…_alpha2_C_K` for each section K of the A2L, one after another in memory. The same
+//! filter goes to every channel of the A2L (channels the running model does not use are
+//! only range-checked by the board). Sections the file does not use are written as model-core's
 //! pass-through section (`β = 1, 2, 1`, `α = 2, 1`), so the board holds exactly the file's
 //! cascade. Before anything is sent: the file is validated by model-core (finite, stable,
 //! finite DC gain), every coefficient is checked against its A2L limits, and the file's
@@ -23,8 +25,8 @@ use model_core::BiquadCoefficients;
 /// Coefficient names of a section, in memory order.
 pub const COEFFICIENTS: [&str; 5] = ["beta0", "beta1", "beta2", "alpha1", "alpha2"];
 
-/// The parameters and values a filter file becomes: `filter_sections`, then every section
-/// slot of the A2L.
+/// The parameters and values a filter file becomes: per channel `filter_sections_C`, then
+/// every section slot of the A2L.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FilterWrite<'a> {
     /// The file's sample rate (Hz).
@@ -33,7 +35,9 @@ pub struct FilterWrite<'a> {
     pub sections: usize,
     /// Section slots the A2L has.
     pub slots: usize,
-    /// The parameters, `filter_sections` first.
+    /// Channels the A2L has.
+    pub channels: usize,
+    /// The parameters, channel by channel, each `filter_sections_C` first.
     pub items: Vec<&'a Item>,
     /// Their values.
     pub values: Vec<f64>,
@@ -48,7 +52,10 @@ pub struct FilterWrite<'a> {
 pub fn plan<'a>(a2l: &'a A2l, path: &Path) -> Result<FilterWrite<'a>> {
     let (file, cascade) = FilterFile::read(path).with_context(|| path.display().to_string())?;
     let slots = (0..)
-        .take_while(|k| a2l.characteristic(&format!("filter_s{k}_beta0")).is_ok())
+        .take_while(|k| a2l.characteristic(&format!("filter_beta0_0_{k}")).is_ok())
+        .count();
+    let channels = (0..)
+        .take_while(|c| a2l.characteristic(&format!("filter_sections_{c}")).is_ok())
         .count();
     let sections = cascade.active();
     if sections.len() > slots {
@@ -58,17 +65,24 @@ pub fn plan<'a>(a2l: &'a A2l, path: &Path) -> Result<FilterWrite<'a>> {
             sections.len()
         );
     }
-    let mut items = vec![a2l.characteristic("filter_sections")?];
-    let mut values = vec![sections.len() as f64];
-    for k in 0..slots {
-        let s = sections
-            .get(k)
-            .copied()
-            .unwrap_or(BiquadCoefficients::IDENTITY);
-        let coefficients = [s.beta0, s.beta1, s.beta2, s.alpha1, s.alpha2];
-        for (name, v) in COEFFICIENTS.iter().zip(coefficients) {
-            items.push(a2l.characteristic(&format!("filter_s{k}_{name}"))?);
-            values.push(f64::from(v));
+    if channels == 0 {
+        bail!("the A2L has no filter_sections_0: not a MiL board's A2L");
+    }
+    let mut items = Vec::new();
+    let mut values = Vec::new();
+    for c in 0..channels {
+        items.push(a2l.characteristic(&format!("filter_sections_{c}"))?);
+        values.push(sections.len() as f64);
+        for k in 0..slots {
+            let s = sections
+                .get(k)
+                .copied()
+                .unwrap_or(BiquadCoefficients::IDENTITY);
+            let coefficients = [s.beta0, s.beta1, s.beta2, s.alpha1, s.alpha2];
+            for (name, v) in COEFFICIENTS.iter().zip(coefficients) {
+                items.push(a2l.characteristic(&format!("filter_{name}_{c}_{k}"))?);
+                values.push(f64::from(v));
+            }
         }
     }
     for (item, v) in items.iter().zip(&values) {
@@ -79,6 +93,7 @@ pub fn plan<'a>(a2l: &'a A2l, path: &Path) -> Result<FilterWrite<'a>> {
         sample_rate_hz: file.sample_rate_hz,
         sections: sections.len(),
         slots,
+        channels,
         items,
         values,
     })
@@ -111,7 +126,8 @@ pub fn upload<T: Transport>(
     Ok(master.write_items_as_one_change(&filter.items, &filter.values)?)
 }
 
-/// The coefficients written, one section a line, and `filter_sections`.
+/// The coefficients written, one section a line (channel 0's; every channel gets the
+/// same), and `filter_sections`.
 pub fn table(filter: &FilterWrite<'_>, changes: &[Change]) -> String {
     let mut t = String::new();
     let Some(count) = changes.first() else {
@@ -119,9 +135,10 @@ pub fn table(filter: &FilterWrite<'_>, changes: &[Change]) -> String {
     };
     let _ = writeln!(
         t,
-        "filter_sections: {} → {} (one block of {} parameters at {} Hz)",
+        "filter_sections: {} → {} on each of {} channel(s) (one block of {} parameters at {} Hz)",
         count.old,
         count.new,
+        filter.channels,
         changes.len(),
         filter.sample_rate_hz
     );
@@ -130,7 +147,11 @@ pub fn table(filter: &FilterWrite<'_>, changes: &[Change]) -> String {
         "{:<8} {:>14} {:>14} {:>14} {:>14} {:>14}",
         "section", "beta0", "beta1", "beta2", "alpha1", "alpha2"
     );
-    for (k, section) in changes[1..].chunks(5).enumerate() {
+    let per_channel = 1 + 5 * filter.slots;
+    let first = changes
+        .get(1..per_channel.min(changes.len()))
+        .unwrap_or(&[]);
+    for (k, section) in first.chunks(5).enumerate() {
         let _ = write!(t, "{:<8}", format!("s{k}"));
         for c in section {
             let _ = write!(t, " {:>14}", format!("{}", c.new as f32));

@@ -283,9 +283,9 @@ enum DaqCommand {
 
 #[derive(Subcommand)]
 enum FilterCommand {
-    /// Write a filter file (`mil design-filter`) to the board: filter_sections and every
-    /// section's delta-form coefficients as ONE block download, so the board validates the
-    /// whole filter at once; prints the coefficients written.
+    /// Write a filter file (`mil design-filter`) to the board: every channel's
+    /// filter_sections and section coefficients (delta form) as ONE block download, so the
+    /// board validates the whole filter at once; prints the coefficients written.
     Upload {
         /// Filter file (JSON, `mil-command-filter`).
         filter: PathBuf,

@@ -64,9 +64,9 @@ fn param_list_prints_the_a2l_table_without_a_board() {
     let o = mil(&["param", "list", "--a2l", text(&a2l)], None);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
-    use mil_firmware::calibration::{ITEMS, MEAS_ITEMS};
+    use mil_firmware::calibration::{slot_named, MEAS_ITEMS, SLOTS};
     assert!(
-        out.starts_with(&format!("{} calibration parameters", ITEMS.len())),
+        out.starts_with(&format!("{SLOTS} calibration parameters")),
         "{out}"
     );
     let line = |name: &str| {
@@ -77,12 +77,15 @@ fn param_list_prints_the_a2l_table_without_a_board() {
             .map(str::to_string)
             .collect::<Vec<_>>()
     };
-    let stiffness = line("tyre_stiffness");
+    let address = |name: &str| format!("0x{:08x}", 0x2000_0000 + 4 * slot_named(name).unwrap());
+    let stiffness = line("tyre_stiffness_0");
     assert_eq!(stiffness[1], "N/m");
-    assert_eq!(stiffness[4], "0x20000000");
+    assert_eq!(stiffness[4], address("tyre_stiffness_0"));
     assert_eq!(stiffness[5..].join(" "), "tyre radial stiffness k_t");
-    let alpha = line("filter_s3_alpha2");
-    assert_eq!(&alpha[1..5], ["-", "0", "4", "0x20000078"]);
+    let alpha = line("filter_alpha2_0_3");
+    assert_eq!(&alpha[1..5], ["-", "0", "4", &address("filter_alpha2_0_3")]);
+    let kind = line("model_kind");
+    assert_eq!(&kind[1..4], ["-", "0", "2"]);
     assert!(
         out.contains(&format!(
             "\n{} measurements (mil daq record --signals):",

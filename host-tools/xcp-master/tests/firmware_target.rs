@@ -16,7 +16,7 @@ use mil_xcp_master::loopback::{Loopback, SimBoard};
 use mil_xcp_master::{resource, A2l, CanIds, Error, Item, Master};
 
 const CAL: u32 = 0x2000_0100;
-const MEAS: u32 = 0x2000_0400;
+const MEAS: u32 = 0x2000_2000;
 
 #[test]
 fn the_firmwares_own_checks_answer_through_the_master() {
@@ -61,16 +61,16 @@ fn the_firmwares_own_checks_answer_through_the_master() {
 
     // The defaults, then a write that reaches the running model.
     assert_eq!(
-        m.read_items(&[c("tyre_stiffness"), c("tyre_damping")])
+        m.read_items(&[c("tyre_stiffness_0"), c("tyre_damping_0")])
             .unwrap(),
         vec![f64::from(TYRE.stiffness), f64::from(TYRE.damping)]
     );
-    m.write_items(&[c("tyre_damping")], &[800.0]).unwrap();
-    assert_eq!(app(&mut m).model.tyre[0].damping, 800.0);
+    m.write_items(&[c("tyre_damping_0")], &[800.0]).unwrap();
+    assert_eq!(app(&mut m).tyre.tyre[0].damping, 800.0);
 
     // Within the A2L limits but not what the board takes: a switch of 0.5.
     let before = app(&mut m);
-    let e = m.write_items(&[c("tyre_lift_off")], &[0.5]).unwrap_err();
+    let e = m.write_items(&[c("tyre_lift_off_0")], &[0.5]).unwrap_err();
     assert_eq!(
         e.xcp_code().map(|c| c.name()),
         Some("ERR_OUT_OF_RANGE".into())
@@ -79,7 +79,10 @@ fn the_firmwares_own_checks_answer_through_the_master() {
     // Each value within its limits, the pair inconsistent (minimum above maximum): one
     // change, refused as a whole.
     let e = m
-        .write_items(&[c("demand_min"), c("demand_max")], &[5000.0, 3000.0])
+        .write_items(
+            &[c("limits_demand_min_0"), c("limits_demand_max_0")],
+            &[5000.0, 3000.0],
+        )
         .unwrap_err();
     assert!(matches!(&e, Error::Refused { .. }), "{e:?}");
     assert!(
@@ -90,10 +93,10 @@ fn the_firmwares_own_checks_answer_through_the_master() {
     assert_eq!(app(&mut m), before);
 
     // A filter whose section is unstable (α2 ≥ α1) is refused as one block ...
-    let mut names = vec!["filter_sections".to_string()];
+    let mut names = vec!["filter_sections_0".to_string()];
     for s in 0..4 {
         for k in ["beta0", "beta1", "beta2", "alpha1", "alpha2"] {
-            names.push(format!("filter_s{s}_{k}"));
+            names.push(format!("filter_{k}_0_{s}"));
         }
     }
     let items: Vec<&Item> = names.iter().map(|n| c(n)).collect();
@@ -128,5 +131,59 @@ fn the_firmwares_own_checks_answer_through_the_master() {
 
     // Back to the build's defaults: the reference page copied as one change.
     m.copy_cal_page(0, 1, 0, 0).unwrap();
-    assert_eq!(app(&mut m).model.tyre[0].damping, TYRE.damping);
+    assert_eq!(app(&mut m).tyre.tyre[0].damping, TYRE.damping);
+
+    // Another model (the aero model on its two channels, at 1 kHz) while the controller
+    // runs: refused as "not now", the tyre runs on; in Idle accepted, and the next Start
+    // runs the aero model.
+    let configuration = [c("sample_rate"), c("model_kind"), c("model_channels")];
+    let aero = [1000.0, 1.0, 2.0];
+    let board = |m: &mut Master<Loopback<Target<Application>, MockPlatform>>| {
+        let a = m.transport_mut().board.target.app_mut();
+        (a.controller().kind(), a.channels(), a.controller().mode())
+    };
+    m.transport_mut()
+        .board
+        .target
+        .app_mut()
+        .command(&mil_firmware::application::Command::Start);
+    use model_core::{Mode, ModelKind};
+    assert_eq!(board(&mut m), (ModelKind::Tyre, 1, Mode::Running));
+    let e = m
+        .write_items_as_one_change(&configuration, &aero)
+        .unwrap_err();
+    assert_eq!(
+        e.xcp_code().map(|c| c.name()),
+        Some("ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE".into()),
+        "{e}"
+    );
+    assert_eq!(board(&mut m), (ModelKind::Tyre, 1, Mode::Running));
+    assert_eq!(m.read_items(&[c("model_kind")]).unwrap(), vec![0.0]);
+    m.transport_mut()
+        .board
+        .target
+        .app_mut()
+        .command(&mil_firmware::application::Command::Stop);
+    m.write_items_as_one_change(&configuration, &aero).unwrap();
+    assert_eq!(board(&mut m), (ModelKind::Aero, 2, Mode::Idle));
+    assert_eq!(m.read_items(&configuration).unwrap(), aero.to_vec());
+    m.transport_mut()
+        .board
+        .target
+        .app_mut()
+        .command(&mil_firmware::application::Command::Start);
+    assert_eq!(board(&mut m), (ModelKind::Aero, 2, Mode::Running));
+    // Four tyres at 2 kHz do not fit the bus: refused whatever the mode.
+    m.transport_mut()
+        .board
+        .target
+        .app_mut()
+        .command(&mil_firmware::application::Command::Stop);
+    let e = m
+        .write_items_as_one_change(&configuration, &[2000.0, 0.0, 4.0])
+        .unwrap_err();
+    assert!(e.xcp_code().is_some(), "{e}");
+    assert_eq!(board(&mut m), (ModelKind::Aero, 2, Mode::Idle));
+    m.copy_cal_page(0, 1, 0, 0).unwrap();
+    assert_eq!(board(&mut m), (ModelKind::Tyre, 1, Mode::Idle));
 }

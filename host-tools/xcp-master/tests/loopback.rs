@@ -16,6 +16,17 @@ use mil_xcp_master::{
 
 const TIMEOUT: Duration = Duration::from_millis(300);
 
+/// The page slot of the firmware's parameter `name`.
+fn slot(name: &str) -> usize {
+    mil_firmware::calibration::slot_named(name).expect("a parameter")
+}
+
+/// The mock's initial value of the firmware's parameter `name`: the mock's working page
+/// holds i * 0.5 in slot i.
+fn mock_value(name: &str) -> f64 {
+    slot(name) as f64 * 0.5
+}
+
 /// The A2L of the firmware's tables, placed at the mock's regions.
 fn a2l() -> A2l {
     let layout = Layout {
@@ -77,8 +88,8 @@ fn downloads(m: &mut MockMaster) -> usize {
 #[test]
 fn the_a2l_table_is_the_firmwares() {
     let a = a2l();
-    use mil_firmware::calibration::{ITEMS, MEAS_ITEMS};
-    assert_eq!(a.characteristics.len(), ITEMS.len());
+    use mil_firmware::calibration::{MEAS_ITEMS, SLOTS};
+    assert_eq!(a.characteristics.len(), SLOTS);
     assert_eq!(a.measurements.len(), MEAS_ITEMS.len());
     assert!(a.skipped.is_empty(), "{:?}", a.skipped);
     assert!(a.warnings.is_empty(), "{:?}", a.warnings);
@@ -98,22 +109,24 @@ fn the_a2l_table_is_the_firmwares() {
             ("measurement", mock::MEAS_START)
         ]
     );
-    for (slot, item) in ITEMS.iter().enumerate() {
-        let c = a.characteristic(item.name).unwrap();
+    for slot in 0..SLOTS {
+        let item = mil_firmware::calibration::item(slot).unwrap();
+        let name = item.to_string();
+        let c = a.characteristic(&name).unwrap();
         assert_eq!(c.address, mock::CAL_START + 4 * slot as u32);
-        assert_eq!(c.min, f64::from(item.min), "{}", item.name);
-        assert_eq!(c.max, f64::from(item.max), "{}", item.name);
-        assert_eq!(c.unit_or_dash(), item.unit, "{}", item.name);
+        assert_eq!(c.min, f64::from(item.min), "{name}");
+        assert_eq!(c.max, f64::from(item.max), "{name}");
+        assert_eq!(c.unit_or_dash(), item.unit, "{name}");
         assert_eq!(c.datatype.name(), "FLOAT32_IEEE");
         assert_eq!(c.description, item.description);
     }
     let mode = a.measurement("mode").unwrap();
     assert_eq!(mode.datatype.name(), "ULONG");
     assert_eq!(a.measurement("demand").unwrap().unit, "N");
-    let e = a.characteristic("tyre_stifness").unwrap_err();
+    let e = a.characteristic("tyre_stifness_0").unwrap_err();
     assert_eq!(
         e.to_string(),
-        "no CHARACTERISTIC `tyre_stifness` in the A2L file (did you mean `tyre_stiffness`?)"
+        "no CHARACTERISTIC `tyre_stifness_0` in the A2L file (did you mean `tyre_stiffness_0`?)"
     );
     assert!(matches!(
         a.measurement("nothing_like_it"),
@@ -144,9 +157,9 @@ fn connect_reads_the_boards_session_and_skips_foreign_and_padded_frames() {
     // Padded to 8 bytes, the values read are still the right ones.
     let a = a2l();
     let v = m
-        .read_items(&[a.characteristic("tyre_damping").unwrap()])
+        .read_items(&[a.characteristic("tyre_damping_0").unwrap()])
         .unwrap();
-    assert_eq!(v, vec![0.5]);
+    assert_eq!(v, vec![mock_value("tyre_damping_0")]);
     m.disconnect().unwrap();
     assert!(!m.transport_mut().board.slave.connected());
     assert!(matches!(m.get_status(), Err(Error::NotConnected)));
@@ -194,7 +207,7 @@ fn writing_while_locked_names_the_lock() {
     let mut m = master();
     m.connect().unwrap();
     let e = m
-        .write_items(&[a.characteristic("tyre_damping").unwrap()], &[600.0])
+        .write_items(&[a.characteristic("tyre_damping_0").unwrap()], &[600.0])
         .unwrap_err();
     assert_eq!(
         e.xcp_code().map(|c| c.name()),
@@ -207,13 +220,17 @@ fn writing_while_locked_names_the_lock() {
 fn get_and_set_by_name_with_old_and_new_values() {
     let a = a2l();
     let mut m = connected();
-    let stiffness = a.characteristic("tyre_stiffness").unwrap();
-    let damping = a.characteristic("tyre_damping").unwrap();
+    let stiffness = a.characteristic("tyre_stiffness_0").unwrap();
+    let damping = a.characteristic("tyre_damping_0").unwrap();
     let watchdog = a.characteristic("watchdog_limit").unwrap();
-    // The mock's working page holds i * 0.5 in slot i.
+    let old = [
+        mock_value("tyre_damping_0"),
+        mock_value("tyre_stiffness_0"),
+        mock_value("watchdog_limit"),
+    ];
     assert_eq!(
         m.read_items(&[damping, stiffness, watchdog]).unwrap(),
-        vec![0.5, 0.0, 16.0]
+        old.to_vec()
     );
     let writes_before = ecu(&mut m).writes;
     let changes = m
@@ -222,25 +239,31 @@ fn get_and_set_by_name_with_old_and_new_values() {
     assert_eq!(changes.len(), 3);
     assert_eq!(
         (changes[0].name.as_str(), changes[0].old, changes[0].new),
-        ("tyre_damping", 0.5, 800.0)
+        ("tyre_damping_0", old[0], 800.0)
     );
     assert_eq!(changes[1].unit, "N/m");
-    assert_eq!((changes[1].old, changes[1].new), (0.0, 2.0e5));
-    assert_eq!((changes[2].old, changes[2].new), (16.0, 20.0));
-    // Slots 0 and 1 are contiguous: one change; slot 32 another.
+    assert_eq!((changes[1].old, changes[1].new), (old[1], 2.0e5));
+    assert_eq!((changes[2].old, changes[2].new), (old[2], 20.0));
+    // Stiffness and damping are contiguous: one change; the watchdog another.
+    assert_eq!(slot("tyre_damping_0"), slot("tyre_stiffness_0") + 1);
     assert_eq!(ecu(&mut m).writes - writes_before, 2);
     let page = ecu(&mut m).working().to_vec();
-    assert_eq!(f32_at(&page, 0), 2.0e5);
-    assert_eq!(f32_at(&page, 1), 800.0);
-    assert_eq!(f32_at(&page, 32), 20.0);
-    assert_eq!(f32_at(&page, 2), 1.0, "a neighbour is untouched");
+    assert_eq!(f32_at(&page, slot("tyre_stiffness_0")), 2.0e5);
+    assert_eq!(f32_at(&page, slot("tyre_damping_0")), 800.0);
+    assert_eq!(f32_at(&page, slot("watchdog_limit")), 20.0);
+    let neighbour = slot("tyre_static_load_0");
+    assert_eq!(
+        f32_at(&page, neighbour),
+        neighbour as f32 * 0.5,
+        "a neighbour is untouched"
+    );
 }
 
 #[test]
 fn values_outside_the_a2l_limits_are_refused_before_anything_is_sent() {
     let a = a2l();
     let mut m = connected();
-    let stiffness = a.characteristic("tyre_stiffness").unwrap();
+    let stiffness = a.characteristic("tyre_stiffness_0").unwrap();
     let sent = downloads(&mut m);
     for bad in [
         f64::NAN,
@@ -253,7 +276,10 @@ fn values_outside_the_a2l_limits_are_refused_before_anything_is_sent() {
         assert!(e.to_string().contains("nothing was sent"), "{e}");
     }
     assert_eq!(downloads(&mut m), sent);
-    assert_eq!(f32_at(ecu(&mut m).working(), 0), 0.0);
+    assert_eq!(
+        f64::from(f32_at(ecu(&mut m).working(), slot("tyre_stiffness_0"))),
+        mock_value("tyre_stiffness_0")
+    );
 }
 
 /// The mock ECU with a switch that refuses every write the way the firmware refuses an
@@ -297,7 +323,7 @@ fn the_boards_own_refusal_is_reported_with_its_meaning() {
     let mut m = Master::new(Loopback::new(sim(picky)), CanIds::default(), TIMEOUT);
     m.connect().unwrap();
     m.unlock(resource::CAL_PAG, TEST_SECRET).unwrap();
-    let damping = a.characteristic("tyre_damping").unwrap();
+    let damping = a.characteristic("tyre_damping_0").unwrap();
     let watchdog = a.characteristic("watchdog_limit").unwrap();
     m.transport_mut().board.target.refuse = Some(Rejected::OutOfRange);
     let e = m.write_items(&[damping], &[700.0]).unwrap_err();
@@ -307,7 +333,7 @@ fn the_boards_own_refusal_is_reported_with_its_meaning() {
     );
     assert!(
         e.to_string()
-            .starts_with("tyre_damping = 700: DOWNLOAD: the board answered ERR_OUT_OF_RANGE (value refused by the board: outside limits/not finite)"),
+            .starts_with("tyre_damping_0 = 700: DOWNLOAD: the board answered ERR_OUT_OF_RANGE (value refused by the board: outside limits/not finite)"),
         "{e}"
     );
     m.transport_mut().board.target.refuse = Some(Rejected::Unstable);
@@ -327,11 +353,11 @@ fn the_boards_own_refusal_is_reported_with_its_meaning() {
 fn a_block_download_is_one_change_and_all_or_nothing() {
     let a = a2l();
     let mut m = connected();
-    // filter_sections and the four sections: 21 contiguous slots, 84 bytes.
-    let mut names = vec!["filter_sections".to_string()];
+    // Channel 0's filter_sections and its four sections: 21 contiguous slots, 84 bytes.
+    let mut names = vec!["filter_sections_0".to_string()];
     for s in 0..4 {
         for c in ["beta0", "beta1", "beta2", "alpha1", "alpha2"] {
-            names.push(format!("filter_s{s}_{c}"));
+            names.push(format!("filter_{c}_0_{s}"));
         }
     }
     let items: Vec<&Item> = names.iter().map(|n| a.characteristic(n).unwrap()).collect();
@@ -359,8 +385,9 @@ fn a_block_download_is_one_change_and_all_or_nothing() {
         assert_eq!(c.new, *v, "{}", c.name);
     }
     let page = ecu(&mut m).working().to_vec();
-    assert_eq!(f32_at(&page, 10), 2.0);
-    assert_eq!(f32_at(&page, 30), 0.25 + 0.125 * 19.0);
+    let first = slot("filter_sections_0");
+    assert_eq!(f32_at(&page, first), 2.0);
+    assert_eq!(f32_at(&page, first + 20), 0.25 + 0.125 * 19.0);
 
     // The mock refuses a page with a non-finite word: the whole block changes nothing.
     let mut raw = Vec::new();
@@ -382,7 +409,7 @@ fn a_block_download_is_one_change_and_all_or_nothing() {
     // Items that are not contiguous cannot be one change: refused before sending.
     let sent = downloads(&mut m);
     let apart = [
-        a.characteristic("tyre_damping").unwrap(),
+        a.characteristic("tyre_damping_0").unwrap(),
         a.characteristic("watchdog_limit").unwrap(),
     ];
     let e = m
@@ -408,11 +435,14 @@ fn long_uploads_take_several_frames() {
 fn pages_switch_and_copy() {
     let a = a2l();
     let mut m = connected();
-    let stiffness = a.characteristic("tyre_stiffness").unwrap();
+    let stiffness = a.characteristic("tyre_stiffness_0").unwrap();
     m.set_cal_page(page_mode::XCP, 0, REFERENCE_PAGE).unwrap();
     assert_eq!(m.get_cal_page(page_mode::XCP, 0).unwrap(), REFERENCE_PAGE);
     // The reference page holds 100 + i.
-    assert_eq!(m.read_items(&[stiffness]).unwrap(), vec![100.0]);
+    assert_eq!(
+        m.read_items(&[stiffness]).unwrap(),
+        vec![100.0 + slot("tyre_stiffness_0") as f64]
+    );
     let e = m.write_items(&[stiffness], &[2.0e5]).unwrap_err();
     assert_eq!(
         e.xcp_code().map(|c| c.name()),
@@ -420,7 +450,10 @@ fn pages_switch_and_copy() {
     );
     assert!(e.to_string().contains("read-only reference page"), "{e}");
     m.set_cal_page(page_mode::XCP, 0, WORKING_PAGE).unwrap();
-    assert_eq!(m.read_items(&[stiffness]).unwrap(), vec![0.0]);
+    assert_eq!(
+        m.read_items(&[stiffness]).unwrap(),
+        vec![mock_value("tyre_stiffness_0")]
+    );
 
     m.set_cal_page(page_mode::ECU, 0, REFERENCE_PAGE).unwrap();
     assert_eq!(m.get_cal_page(page_mode::ECU, 0).unwrap(), REFERENCE_PAGE);
@@ -430,7 +463,10 @@ fn pages_switch_and_copy() {
     assert_eq!(ecu(&mut m).ecu_page, Page::Working);
 
     m.copy_cal_page(0, REFERENCE_PAGE, 0, WORKING_PAGE).unwrap();
-    assert_eq!(m.read_items(&[stiffness]).unwrap(), vec![100.0]);
+    assert_eq!(
+        m.read_items(&[stiffness]).unwrap(),
+        vec![100.0 + slot("tyre_stiffness_0") as f64]
+    );
     assert_eq!(
         m.segment_address(0).unwrap(),
         (mock::CAL_START, mock::CAL_LEN as u32)
@@ -588,9 +624,9 @@ fn daq_needs_the_daq_resource_and_dropping_a_session_stops_it() {
     assert!(!m.transport_mut().board.slave.daq_running());
     // Parameters can be read while nothing runs; the DTOs left over do not confuse it.
     assert_eq!(
-        m.read_items(&[a.characteristic("tyre_damping").unwrap()])
+        m.read_items(&[a.characteristic("tyre_damping_0").unwrap()])
             .unwrap(),
-        vec![0.5]
+        vec![mock_value("tyre_damping_0")]
     );
 }
 
@@ -638,12 +674,15 @@ fn over_slcan_on_tcp() {
     let mut m = Master::new(port, CanIds::default(), Duration::from_secs(1));
     m.connect().unwrap();
     m.unlock_all(resource::CAL_PAG, TEST_SECRET).unwrap();
-    let damping = a.characteristic("tyre_damping").unwrap();
+    let damping = a.characteristic("tyre_damping_0").unwrap();
     let changes = m.write_items(&[damping], &[650.0]).unwrap();
-    assert_eq!((changes[0].old, changes[0].new), (0.5, 650.0));
+    assert_eq!(
+        (changes[0].old, changes[0].new),
+        (mock_value("tyre_damping_0"), 650.0)
+    );
     m.disconnect().unwrap();
     let page = board.with_board(|b| b.target.working().to_vec());
-    assert_eq!(f32_at(&page, 1), 650.0);
+    assert_eq!(f32_at(&page, slot("tyre_damping_0")), 650.0);
 }
 
 #[test]

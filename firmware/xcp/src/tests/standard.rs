@@ -206,9 +206,10 @@ fn configs_are_checked() {
     c.measurement = Region::new(0x1000, 0);
     assert_eq!(Slave::new(c).err(), Some(ConfigError::BadRegion));
     c = good;
-    c.measurement = Region::new(mock::CAL_START + 0xFF, 4);
+    let end = mock::CAL_START + mock::CAL_LEN as u32;
+    c.measurement = Region::new(end - 1, 4);
     assert_eq!(Slave::new(c).err(), Some(ConfigError::RegionsOverlap));
-    c.measurement = Region::new(mock::CAL_START + 0x100, 4);
+    c.measurement = Region::new(end, 4);
     assert!(Slave::new(c).is_ok(), "adjacent regions");
     c = good;
     c.secret = b"short";
