@@ -12,8 +12,8 @@
 //! nine, so its size is the largest one's; no heap). [`BoardController::swap`] installs a new
 //! validated set ([`BoardPrepared`]) between two steps:
 //! - the same kind and channel count: [`Controller::swap_params`], bumpless in any mode;
-//! - another kind or channel count: only in [`Mode::Idle`] (refused in Running and in Fault
-//!   with [`SwapError::NotIdle`], nothing changes); the new controller is Idle and continues
+//! - another kind, channel count or sample period: only in [`Mode::Idle`] (refused in
+//!   Running and in Fault with [`SwapError::NotIdle`], nothing changes); the new controller is Idle and continues
 //!   the demand of every channel both configurations have ([`Controller::continue_demand`]),
 //!   ramping from there to its own safe demand at its safe ramp rate, so a change of model
 //!   never steps the force. The next Start runs the new model from rest.
@@ -282,10 +282,9 @@ macro_rules! each {
 /// Why [`BoardController::swap`] refused a parameter set; nothing changed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SwapError {
-    /// The model kind or channel count changes, and the controller is not Idle.
+    /// The model kind, channel count or sample period changes, and the controller is not
+    /// Idle.
     NotIdle,
-    /// The set was prepared for another sample period.
-    SamplePeriod,
 }
 
 /// The first `CH` channels of a board-wide array.
@@ -373,24 +372,23 @@ impl BoardController {
     }
 
     /// Installs `prepared` between two steps (see the module docs): bumpless for the same
-    /// configuration; another kind or channel count only while Idle, continuing the
-    /// demand. On error nothing changes.
+    /// configuration; another kind, channel count or sample period only while Idle,
+    /// continuing the demand. On error nothing changes.
     pub fn swap(&mut self, prepared: &BoardPrepared) -> Result<(), SwapError> {
-        if prepared_dt(&prepared.prepared).to_bits() != self.dt().to_bits() {
-            return Err(SwapError::SamplePeriod);
-        }
-        let same = match (&mut self.running, prepared.prepared) {
-            (Running::Tyre1(c), Prepared::Tyre1(p)) => c.swap_params(p).is_ok(),
-            (Running::Tyre2(c), Prepared::Tyre2(p)) => c.swap_params(p).is_ok(),
-            (Running::Tyre3(c), Prepared::Tyre3(p)) => c.swap_params(p).is_ok(),
-            (Running::Tyre4(c), Prepared::Tyre4(p)) => c.swap_params(p).is_ok(),
-            (Running::Aero(c), Prepared::Aero(p)) => c.swap_params(p).is_ok(),
-            (Running::Sub1(c), Prepared::Sub1(p)) => c.swap_params(p).is_ok(),
-            (Running::Sub2(c), Prepared::Sub2(p)) => c.swap_params(p).is_ok(),
-            (Running::Sub3(c), Prepared::Sub3(p)) => c.swap_params(p).is_ok(),
-            (Running::Sub4(c), Prepared::Sub4(p)) => c.swap_params(p).is_ok(),
-            _ => false,
-        };
+        let same_dt = prepared_dt(&prepared.prepared).to_bits() == self.dt().to_bits();
+        let same = same_dt
+            && match (&mut self.running, prepared.prepared) {
+                (Running::Tyre1(c), Prepared::Tyre1(p)) => c.swap_params(p).is_ok(),
+                (Running::Tyre2(c), Prepared::Tyre2(p)) => c.swap_params(p).is_ok(),
+                (Running::Tyre3(c), Prepared::Tyre3(p)) => c.swap_params(p).is_ok(),
+                (Running::Tyre4(c), Prepared::Tyre4(p)) => c.swap_params(p).is_ok(),
+                (Running::Aero(c), Prepared::Aero(p)) => c.swap_params(p).is_ok(),
+                (Running::Sub1(c), Prepared::Sub1(p)) => c.swap_params(p).is_ok(),
+                (Running::Sub2(c), Prepared::Sub2(p)) => c.swap_params(p).is_ok(),
+                (Running::Sub3(c), Prepared::Sub3(p)) => c.swap_params(p).is_ok(),
+                (Running::Sub4(c), Prepared::Sub4(p)) => c.swap_params(p).is_ok(),
+                _ => false,
+            };
         if same {
             self.params = prepared.params;
             return Ok(());

@@ -52,8 +52,8 @@ pub enum WordKind {
 /// What one word is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParamInfo {
-    /// Group: `board`, `tyre`, `aero`, `aero_map`, `substructure`, `element`, `filter`,
-    /// `limits`.
+    /// Group: empty (the model selection), `tyre`, `aero`, `aero_map`, `substructure`,
+    /// `element`, `filter`, `limits`.
     pub group: &'static str,
     /// Name within the group.
     pub name: &'static str,
@@ -71,6 +71,21 @@ pub struct ParamInfo {
     pub min: f32,
     /// Highest allowed value.
     pub max: f32,
+}
+
+impl core::fmt::Display for ParamInfo {
+    /// The name a calibration tool shows: group, name and indices joined by `_`
+    /// (`tyre_stiffness_0`, `substructure_mass_1_1`, `model_kind`).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        if !self.group.is_empty() {
+            write!(f, "{}_", self.group)?;
+        }
+        f.write_str(self.name)?;
+        for i in self.index.iter().take(usize::from(self.dims)) {
+            write!(f, "_{i}")?;
+        }
+        Ok(())
+    }
 }
 
 /// A field handed to the [`BoardParams::visit`] closure.
@@ -151,7 +166,7 @@ impl BoardParams {
         let ch_max = BOARD_CHANNELS as f32;
         f(
             &item(
-                "board",
+                "",
                 "model_kind",
                 "-",
                 "running model: 0 tyre, 1 aero, 2 substructure (changed only while Idle)",
@@ -162,8 +177,8 @@ impl BoardParams {
         );
         f(
             &item(
-                "board",
-                "channels",
+                "",
+                "model_channels",
                 "-",
                 "actuator channels of the running model (tyre, substructure 1-4; aero 2)",
                 INTEGER,

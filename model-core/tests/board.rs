@@ -291,8 +291,12 @@ fn a_parameter_change_within_a_configuration_while_running() {
     assert_eq!(c.swap(&q.prepare(DT).unwrap()), Ok(()));
     assert_eq!(c.mode(), Mode::Running);
     assert_eq!(c.params(), &q);
+    // Another sample period is another configuration: only while Idle.
     let other = q.prepare(2.0 * DT).unwrap();
-    assert_eq!(c.swap(&other), Err(SwapError::SamplePeriod));
+    assert_eq!(c.swap(&other), Err(SwapError::NotIdle));
+    c.stop();
+    assert_eq!(c.swap(&other), Ok(()));
+    assert_eq!(c.dt(), 2.0 * DT);
 }
 
 /// A configuration drawn over the board's kinds, channel counts and documented ranges.

@@ -38,12 +38,7 @@ fn names_are_unique_and_ranges_sound() {
     let mut names = BTreeSet::new();
     for k in 0..WORDS {
         let i = info(k).unwrap();
-        let name = format!(
-            "{}.{}{:?}",
-            i.group,
-            i.name,
-            &i.index[..usize::from(i.dims)]
-        );
+        let name = i.to_string();
         assert!(names.insert(name.clone()), "{name} twice");
         assert!(i.min <= i.max, "{name}");
         if i.kind != WordKind::Real {
@@ -53,8 +48,13 @@ fn names_are_unique_and_ranges_sound() {
     }
     assert!(info(WORDS).is_none());
     assert_eq!(
-        (info(0).unwrap().name, info(1).unwrap().name),
-        ("model_kind", "channels")
+        (info(0).unwrap().to_string(), info(1).unwrap().to_string()),
+        ("model_kind".to_string(), "model_channels".to_string())
+    );
+    assert_eq!(info(2).unwrap().to_string(), "tyre_stiffness_0");
+    assert_eq!(
+        info(WORDS - 1).unwrap().to_string(),
+        "limits_safe_ramp_rate_3"
     );
 }
 

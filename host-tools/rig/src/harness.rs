@@ -68,6 +68,48 @@ impl<M: Model<CH>, const CH: usize> Board<CH> for Controller<M, CH> {
     }
 }
 
+/// The board's run-time controller ([`model_core::BoardController`]) on its first `CH`
+/// channels (`CH` up to [`model_core::BOARD_CHANNELS`], the running configuration's count):
+/// what the firmware runs, on the host.
+impl<const CH: usize> Board<CH> for model_core::BoardController {
+    fn start(&mut self) -> Result<(), String> {
+        model_core::BoardController::start(self);
+        Ok(())
+    }
+
+    fn step(&mut self, input: &ModelInput<CH>) -> Result<[f32; CH], String> {
+        if CH != self.channels() {
+            return Err(format!(
+                "the board runs {} channel(s), the rig has {CH}",
+                self.channels()
+            ));
+        }
+        let mut wide = ModelInput::<{ model_core::BOARD_CHANNELS }> {
+            speed: input.speed,
+            ..ModelInput::default()
+        };
+        for (to, from) in [
+            (&mut wide.position, &input.position),
+            (&mut wide.force, &input.force),
+            (&mut wide.road, &input.road),
+        ] {
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = *f;
+            }
+        }
+        let demand = model_core::BoardController::step(self, &wide);
+        let mut out = [0.0; CH];
+        for (o, d) in out.iter_mut().zip(demand) {
+            *o = d;
+        }
+        Ok(out)
+    }
+
+    fn status(&self) -> Status {
+        model_core::BoardController::status(self)
+    }
+}
+
 /// Sensors and links of every channel (the same spec on every channel).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Instrumentation {
