@@ -2,7 +2,7 @@
 //!
 //! A bare-metal binary for the rig board's MCU (STM32F405RG, Cortex-M4F,
 //! `thumbv7em-none-eabihf`) that runs in QEMU's `netduinoplus2` machine and prints how many
-//! **instructions** one [`Controller::step`] costs, for five controller configurations:
+//! **instructions** one [`Controller::step`] costs, for eight controller configurations:
 //!
 //! | name | controller |
 //! | --- | --- |
@@ -11,6 +11,7 @@
 //! | `tyre4-filter4` | `tyre4` with a 4-section command filter on each channel |
 //! | `substructure2` | `Controller<SubstructureModel<2>, 2>`, a 2-DOF quarter car (admittance) |
 //! | `substructure2-elements` | `substructure2` with its two road springs as nonlinear elements, every effect on (stops, cubic, asymmetric and quadratic damping, friction, lift-off) |
+//! | `board-tyre4-filter4`, `board-aero2`, `board-substructure2-elements` | the same three through the board's run-time controller (`BoardController`: model kind and channels chosen at run time, the firmware's one image) |
 //!
 //! Each controller is built with [`Controller::with_params`] (parameters hidden from the
 //! optimiser, as if they had arrived at run time), started, and stepped [`STEPS`] times at
@@ -69,10 +70,10 @@ use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio, hprintln};
 use model_core::{
-    AeroModel, AeroParams, BiquadCoefficients, CascadeCoefficients, Causality, Controller,
-    ControllerParams, DemandLimits, ElementLaw, Mode, Model, ModelInput, SubstructureElement,
-    SubstructureModel, SubstructureParams, TyreModel, TyreModelParams, TyreParams, MAX_DOF,
-    MAX_SECTIONS,
+    AeroModel, AeroParams, BiquadCoefficients, BoardController, BoardParams, CascadeCoefficients,
+    Causality, Controller, ControllerParams, DemandLimits, ElementLaw, Mode, Model, ModelInput,
+    ModelKind, SubstructureElement, SubstructureModel, SubstructureParams, TyreModel,
+    TyreModelParams, TyreParams, BOARD_CHANNELS, MAX_DOF, MAX_SECTIONS,
 };
 
 /// Sample period (s): 5 kHz, the rig's control rate.
@@ -226,6 +227,108 @@ fn step_once<M: Model<CH>, const CH: usize>(
     input: &ModelInput<CH>,
 ) -> [f32; CH] {
     controller.step(input)
+}
+
+/// One call of the board's run-time controller's step (see [`step_once`]).
+#[inline(never)]
+fn board_step_once(
+    controller: &mut BoardController,
+    input: &ModelInput<BOARD_CHANNELS>,
+) -> [f32; BOARD_CHANNELS] {
+    controller.step(input)
+}
+
+/// Builds, starts and steps the board's run-time controller ([`BoardController`], the one
+/// image that runs every model) in the configuration `params` selects; prints its line,
+/// named `board-<name>`, with the same figures as [`bench`].
+fn bench_board(
+    name: &str,
+    params: &BoardParams,
+    calibration: Calibration,
+    road_hz: f64,
+    fill: impl Fn(f32, f32, &mut ModelInput<BOARD_CHANNELS>),
+) {
+    let mut controller = match BoardController::with_params(black_box(params), black_box(DT)) {
+        Ok(c) => c,
+        Err(e) => fail(format_args!("board-{name}: parameters rejected: {e:?}")),
+    };
+    if !controller.start() {
+        fail(format_args!("board-{name}: start() refused"));
+    }
+    let mut osc = Oscillator::new(road_hz);
+    let mut input = ModelInput::<BOARD_CHANNELS>::default();
+    let (mut first, mut max, mut total) = (0u32, 0u32, 0u64);
+    for k in 0..=STEPS {
+        fill(osc.sin, osc.cos, &mut input);
+        osc.advance();
+        let input = black_box(&input);
+        let t0 = Timer::now();
+        let demand = board_step_once(&mut controller, input);
+        let t1 = Timer::now();
+        black_box(demand);
+        let counts = Timer::elapsed(t0, t1);
+        if k == 0 {
+            first = counts;
+        } else {
+            total += u64::from(counts);
+            max = max.max(counts);
+        }
+    }
+    let status = controller.status();
+    if controller.mode() != Mode::Running || status.fault != 0 {
+        fail(format_args!(
+            "board-{name}: controller left Running (mode {:?}, status {:?})",
+            controller.mode(),
+            status
+        ));
+    }
+    let mean = total as f64 * calibration.instructions_per_count / f64::from(STEPS)
+        - calibration.empty_window;
+    hprintln!(
+        "step-bench board-{}: {:.1} instructions/step ({} steps), controller {} bytes, first step {:.0}, max {:.0}, {:.1} SysTick counts/step",
+        name,
+        mean,
+        STEPS,
+        core::mem::size_of::<BoardController>(),
+        calibration.window(first),
+        calibration.window(max),
+        total as f64 / f64::from(STEPS)
+    );
+}
+
+/// The board page of a `Controller` configuration: its model kind and channels, its model
+/// parameters and its per-channel filters, limits and safe state (`CH` of the board's four).
+fn board_params<const CH: usize>(
+    kind: ModelKind,
+    common: &ControllerParams<impl Copy, CH>,
+    model: impl FnOnce(&mut BoardParams),
+) -> BoardParams {
+    let mut p = BoardParams::tyres(TyreParams::PAPER, CH as u32, common.limits[0], 0.0, 1.0);
+    p.kind = kind as u32;
+    for c in 0..CH.min(BOARD_CHANNELS) {
+        p.filter[c] = common.filter[c];
+        p.limits[c] = common.limits[c];
+        p.safe_demand[c] = common.safe_demand[c];
+        p.safe_ramp_rate[c] = common.safe_ramp_rate[c];
+    }
+    model(&mut p);
+    p
+}
+
+/// Widens a `CH`-channel input generator to the board's channels.
+fn widen<const CH: usize>(
+    fill: impl Fn(f32, f32, &mut ModelInput<CH>),
+) -> impl Fn(f32, f32, &mut ModelInput<BOARD_CHANNELS>) {
+    move |s, c, wide| {
+        let mut narrow = ModelInput::<CH>::default();
+        fill(s, c, &mut narrow);
+        for k in 0..CH.min(BOARD_CHANNELS) {
+            wide.position[k] = narrow.position[k];
+            wide.force[k] = narrow.force[k];
+            wide.road[k] = narrow.road[k];
+        }
+        wide.speed = narrow.speed;
+    }
 }
 
 /// Builds, starts and steps one controller; prints its line.
@@ -536,6 +639,35 @@ fn main() -> ! {
         calibration,
         3.0,
         substructure_input,
+    );
+
+    // The same configurations through the board's run-time controller (the firmware's one
+    // image): the cost of choosing the model at run time.
+    let tyres = tyre_params(command_filter());
+    bench_board(
+        "tyre4-filter4",
+        &board_params(ModelKind::Tyre, &tyres, |_| {}),
+        calibration,
+        5.0,
+        widen(tyre_input),
+    );
+    let aero = aero_params();
+    bench_board(
+        "aero2",
+        &board_params(ModelKind::Aero, &aero, |p| p.aero = aero.model),
+        calibration,
+        2.0,
+        widen(aero_input),
+    );
+    let sub = substructure_elements_params();
+    bench_board(
+        "substructure2-elements",
+        &board_params(ModelKind::Substructure, &sub, |p| {
+            p.substructure = sub.model.first_channels::<BOARD_CHANNELS>();
+        }),
+        calibration,
+        3.0,
+        widen(substructure_input),
     );
 
     hprintln!("step-bench done");
