@@ -310,7 +310,7 @@ impl Application {
     ) -> crate::calibration::Source {
         self.calibration_source = match words {
             Some(words) => match crate::calibration::decode_page(words) {
-                Ok((prepared, settings)) if self.install(prepared, settings) == code::OK => source,
+                Ok((prepared, settings)) if self.install(&prepared, settings) == code::OK => source,
                 _ => crate::calibration::Source::Refused,
             },
             None => source,
@@ -582,12 +582,12 @@ impl Application {
     /// Idle ([`code::WRONG_MODE`]; the running model carries on); a watchdog switched off
     /// (QEMU build, until reset) given another limit. The caller counts a refusal where it
     /// counts ([`Counters::rejected`] counts Command frames).
-    pub fn install(&mut self, prepared: Prepared, settings: crate::calibration::Settings) -> u8 {
+    pub fn install(&mut self, prepared: &Prepared, settings: crate::calibration::Settings) -> u8 {
         // Everything that can refuse is checked before anything changes.
         if self.watchdog.is_off() && settings.watchdog != WATCHDOG_OFF {
             return code::WRONG_MODE;
         }
-        match self.controller.swap(&prepared) {
+        match self.controller.swap(prepared) {
             Ok(()) => {
                 self.status_period = settings.status_period;
                 self.watchdog.limit = settings.watchdog;

@@ -233,9 +233,22 @@ pub fn ack_frame(command_raw: u8, index_raw: u8, result: u8, mode: Mode) -> RawF
     )
 }
 
-/// The Demand frames of one step, one per running channel (the first `demand.channels`).
+/// The Demand frames of one step, one per running channel (the first `demand.channels`;
+/// the others are left empty, never sent).
 pub fn demand_frames(demand: &Demand) -> [RawFrame; crate::config::CHANNELS] {
-    core::array::from_fn(|ch| demand_frame(demand, ch))
+    let mut frames = [RawFrame {
+        id: DEMAND_ID,
+        len: 0,
+        data: [0; 8],
+    }; crate::config::CHANNELS];
+    for (ch, f) in frames
+        .iter_mut()
+        .enumerate()
+        .take(usize::from(demand.channels))
+    {
+        *f = demand_frame(demand, ch);
+    }
+    frames
 }
 
 /// Queues the Demand frames of one step (counted late when one cannot be queued).
@@ -743,14 +756,14 @@ mod tests {
         p.safe_demand = [2500.0, 0.0, 0.0, 0.0];
         let prepared = p.prepare(crate::config::DT).unwrap();
         let settings = crate::calibration::DEFAULT_SETTINGS;
-        assert_eq!(app.install(prepared, settings), crate::params::code::OK);
+        assert_eq!(app.install(&prepared, settings), crate::params::code::OK);
         let Ok(Message::Demand(d)) = decode(&LAYOUT, &safe_demand_frame(0, 4)) else {
             panic!("not a demand");
         };
         assert!((d.demand_n - 2500.0).abs() < 0.1, "{d:?}");
         let defaults = Application::new(256).unwrap();
         let reset = defaults.params().prepare(crate::config::DT).unwrap();
-        assert_eq!(app.install(reset, settings), crate::params::code::OK);
+        assert_eq!(app.install(&reset, settings), crate::params::code::OK);
         let nan = Demand {
             force_n: [f32::NAN; crate::config::CHANNELS],
             channels: 1,

@@ -102,13 +102,17 @@ pub fn layout_id() -> u32 {
         }
     }
     let mut h = Hash(crc32fast::Hasher::new());
-    for slot in 0..SLOTS {
+    let mut add = |item: &calibration::CalItem| {
+        use core::fmt::Write as _;
+        let _ = write!(h, "{item};");
+        h.0.update(&[item.kind as u8]);
+    };
+    for slot in 0..calibration::SETTINGS_SLOTS {
         if let Some(item) = calibration::item(slot) {
-            use core::fmt::Write as _;
-            let _ = write!(h, "{item};");
-            h.0.update(&[item.kind as u8]);
+            add(&item);
         }
     }
+    model_core::page::for_each_info(&mut |_, item| add(item));
     h.0.finalize()
 }
 

@@ -228,7 +228,7 @@ impl<A: AppAccess> Target<A> {
 
     /// Installs `prepared` and `settings` under one lock, as one transaction
     /// ([`Application::install`]): all of it, or (CommandAck code) nothing.
-    fn install(&mut self, prepared: Prepared, settings: Settings) -> Result<(), u8> {
+    fn install(&mut self, prepared: &Prepared, settings: Settings) -> Result<(), u8> {
         match self.app.with(|a| a.install(prepared, settings)) {
             code::OK => Ok(()),
             c => Err(c),
@@ -383,7 +383,7 @@ impl<A: AppAccess> Target<A> {
     /// code) changes neither the page nor the running set.
     fn commit(&mut self, change: calibration::Accepted) -> Result<(), u8> {
         if self.ecu_page == Page::Working {
-            self.install(change.prepared, change.settings)?;
+            self.install(&change.prepared, change.settings)?;
         }
         calibration::store_working(&change.words);
         Ok(())
@@ -397,7 +397,7 @@ impl<A: AppAccess> Target<A> {
             Page::Reference => calibration::reference_words(),
         };
         let (prepared, settings) = calibration::decode_page(&words)?;
-        self.install(prepared, settings)?;
+        self.install(&prepared, settings)?;
         self.ecu_page = page;
         Ok(())
     }
