@@ -72,7 +72,7 @@ use cortex_m_semihosting::{debug, hio, hprintln};
 use model_core::{
     AeroModel, AeroParams, BiquadCoefficients, BoardController, BoardParams, CascadeCoefficients,
     Causality, Controller, ControllerParams, DemandLimits, ElementLaw, Mode, Model, ModelInput,
-    ModelKind, SubstructureElement, SubstructureModel, SubstructureParams, TyreModel,
+    ModelKind, Status, SubstructureElement, SubstructureModel, SubstructureParams, TyreModel,
     TyreModelParams, TyreParams, BOARD_CHANNELS, MAX_DOF, MAX_SECTIONS,
 };
 
@@ -219,51 +219,71 @@ impl Oscillator {
 // ---------------------------------------------------------------------------------------------
 // The benchmark
 
-/// One call of the controller step: the measured unit (a real call, like the firmware's
-/// control task makes, and a frame that shows in the disassembly).
-#[inline(never)]
-fn step_once<M: Model<CH>, const CH: usize>(
-    controller: &mut Controller<M, CH>,
-    input: &ModelInput<CH>,
-) -> [f32; CH] {
-    controller.step(input)
+/// What the benchmark steps: a model's [`Controller`], or the board's run-time
+/// [`BoardController`] (the firmware's one image).
+trait Stepped<const CH: usize> {
+    fn start(&mut self) -> bool;
+    /// One step behind a real call (`#[inline(never)]`): the measured unit, like the call the
+    /// firmware's control task makes, and a frame that shows in the disassembly.
+    fn step_once(&mut self, input: &ModelInput<CH>) -> [f32; CH];
+    fn mode(&self) -> Mode;
+    fn status(&self) -> Status;
 }
 
-/// One call of the board's run-time controller's step (see [`step_once`]).
-#[inline(never)]
-fn board_step_once(
-    controller: &mut BoardController,
-    input: &ModelInput<BOARD_CHANNELS>,
-) -> [f32; BOARD_CHANNELS] {
-    controller.step(input)
+impl<M: Model<CH>, const CH: usize> Stepped<CH> for Controller<M, CH> {
+    fn start(&mut self) -> bool {
+        Controller::start(self)
+    }
+    #[inline(never)]
+    fn step_once(&mut self, input: &ModelInput<CH>) -> [f32; CH] {
+        self.step(input)
+    }
+    fn mode(&self) -> Mode {
+        Controller::mode(self)
+    }
+    fn status(&self) -> Status {
+        Controller::status(self)
+    }
 }
 
-/// Builds, starts and steps the board's run-time controller ([`BoardController`], the one
-/// image that runs every model) in the configuration `params` selects; prints its line,
-/// named `board-<name>`, with the same figures as [`bench`].
-fn bench_board(
+impl Stepped<BOARD_CHANNELS> for BoardController {
+    fn start(&mut self) -> bool {
+        BoardController::start(self)
+    }
+    #[inline(never)]
+    fn step_once(&mut self, input: &ModelInput<BOARD_CHANNELS>) -> [f32; BOARD_CHANNELS] {
+        self.step(input)
+    }
+    fn mode(&self) -> Mode {
+        BoardController::mode(self)
+    }
+    fn status(&self) -> Status {
+        BoardController::status(self)
+    }
+}
+
+/// Starts and steps `controller`; prints its line.
+fn run<C: Stepped<CH>, const CH: usize>(
     name: &str,
-    params: &BoardParams,
+    mut controller: C,
     calibration: Calibration,
     road_hz: f64,
-    fill: impl Fn(f32, f32, &mut ModelInput<BOARD_CHANNELS>),
+    fill: impl Fn(f32, f32, &mut ModelInput<CH>),
 ) {
-    let mut controller = match BoardController::with_params(black_box(params), black_box(DT)) {
-        Ok(c) => c,
-        Err(e) => fail(format_args!("board-{name}: parameters rejected: {e:?}")),
-    };
     if !controller.start() {
-        fail(format_args!("board-{name}: start() refused"));
+        fail(format_args!("{name}: start() refused"));
     }
     let mut osc = Oscillator::new(road_hz);
-    let mut input = ModelInput::<BOARD_CHANNELS>::default();
-    let (mut first, mut max, mut total) = (0u32, 0u32, 0u64);
+    let mut input = ModelInput::<CH>::default();
+    let mut first = 0u32;
+    let mut max = 0u32;
+    let mut total: u64 = 0;
     for k in 0..=STEPS {
         fill(osc.sin, osc.cos, &mut input);
         osc.advance();
         let input = black_box(&input);
         let t0 = Timer::now();
-        let demand = board_step_once(&mut controller, input);
+        let demand = controller.step_once(input);
         let t1 = Timer::now();
         black_box(demand);
         let counts = Timer::elapsed(t0, t1);
@@ -277,7 +297,7 @@ fn bench_board(
     let status = controller.status();
     if controller.mode() != Mode::Running || status.fault != 0 {
         fail(format_args!(
-            "board-{name}: controller left Running (mode {:?}, status {:?})",
+            "{name}: controller left Running (mode {:?}, status {:?}): the figure would time the fault path",
             controller.mode(),
             status
         ));
@@ -285,15 +305,46 @@ fn bench_board(
     let mean = total as f64 * calibration.instructions_per_count / f64::from(STEPS)
         - calibration.empty_window;
     hprintln!(
-        "step-bench board-{}: {:.1} instructions/step ({} steps), controller {} bytes, first step {:.0}, max {:.0}, {:.1} SysTick counts/step",
+        "step-bench {}: {:.1} instructions/step ({} steps), controller {} bytes, first step {:.0}, max {:.0}, {:.1} SysTick counts/step",
         name,
         mean,
         STEPS,
-        core::mem::size_of::<BoardController>(),
+        core::mem::size_of::<C>(),
         calibration.window(first),
         calibration.window(max),
         total as f64 / f64::from(STEPS)
     );
+}
+
+/// Builds one model's controller (parameters through `black_box`, so that the optimiser
+/// cannot specialise the step on known coefficients: on the rig they arrive at run time)
+/// and runs it.
+fn bench<M: Model<CH>, const CH: usize>(
+    name: &str,
+    params: &ControllerParams<M::Params, CH>,
+    calibration: Calibration,
+    road_hz: f64,
+    fill: impl Fn(f32, f32, &mut ModelInput<CH>),
+) {
+    match Controller::<M, CH>::with_params(black_box(params), black_box(DT)) {
+        Ok(c) => run(name, c, calibration, road_hz, fill),
+        Err(e) => fail(format_args!("{name}: parameters rejected: {e:?}")),
+    }
+}
+
+/// Builds the board's run-time controller in the configuration `params` selects and runs
+/// it (`name` starts with `board-`).
+fn bench_board(
+    name: &str,
+    params: &BoardParams,
+    calibration: Calibration,
+    road_hz: f64,
+    fill: impl Fn(f32, f32, &mut ModelInput<BOARD_CHANNELS>),
+) {
+    match BoardController::with_params(black_box(params), black_box(DT)) {
+        Ok(c) => run(name, c, calibration, road_hz, fill),
+        Err(e) => fail(format_args!("{name}: parameters rejected: {e:?}")),
+    }
 }
 
 /// The board page of a `Controller` configuration: its model kind and channels, its model
@@ -329,66 +380,6 @@ fn widen<const CH: usize>(
         }
         wide.speed = narrow.speed;
     }
-}
-
-/// Builds, starts and steps one controller; prints its line.
-fn bench<M: Model<CH>, const CH: usize>(
-    name: &str,
-    params: &ControllerParams<M::Params, CH>,
-    calibration: Calibration,
-    road_hz: f64,
-    fill: impl Fn(f32, f32, &mut ModelInput<CH>),
-) {
-    // The parameters go through `black_box` so that the optimiser cannot specialise the step
-    // on known coefficients: on the rig they arrive at run time.
-    let mut controller = match Controller::<M, CH>::with_params(black_box(params), black_box(DT)) {
-        Ok(c) => c,
-        Err(e) => fail(format_args!("{name}: parameters rejected: {e:?}")),
-    };
-    if !controller.start() {
-        fail(format_args!("{name}: start() refused"));
-    }
-    let mut osc = Oscillator::new(road_hz);
-    let mut input = ModelInput::<CH>::default();
-    let mut first = 0u32;
-    let mut max = 0u32;
-    let mut total: u64 = 0;
-    for k in 0..=STEPS {
-        fill(osc.sin, osc.cos, &mut input);
-        osc.advance();
-        let input = black_box(&input);
-        let t0 = Timer::now();
-        let demand = step_once(&mut controller, input);
-        let t1 = Timer::now();
-        black_box(demand);
-        let counts = Timer::elapsed(t0, t1);
-        if k == 0 {
-            first = counts;
-        } else {
-            total += u64::from(counts);
-            max = max.max(counts);
-        }
-    }
-    let status = controller.status();
-    if controller.mode() != Mode::Running || status.fault != 0 {
-        fail(format_args!(
-            "{name}: controller left Running (mode {:?}, status {:?}): the figure would time the fault path",
-            controller.mode(),
-            status
-        ));
-    }
-    let mean = total as f64 * calibration.instructions_per_count / f64::from(STEPS)
-        - calibration.empty_window;
-    hprintln!(
-        "step-bench {}: {:.1} instructions/step ({} steps), controller {} bytes, first step {:.0}, max {:.0}, {:.1} SysTick counts/step",
-        name,
-        mean,
-        STEPS,
-        core::mem::size_of::<Controller<M, CH>>(),
-        calibration.window(first),
-        calibration.window(max),
-        total as f64 / f64::from(STEPS)
-    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -645,7 +636,7 @@ fn main() -> ! {
     // image): the cost of choosing the model at run time.
     let tyres = tyre_params(command_filter());
     bench_board(
-        "tyre4-filter4",
+        "board-tyre4-filter4",
         &board_params(ModelKind::Tyre, &tyres, |_| {}),
         calibration,
         5.0,
@@ -653,7 +644,7 @@ fn main() -> ! {
     );
     let aero = aero_params();
     bench_board(
-        "aero2",
+        "board-aero2",
         &board_params(ModelKind::Aero, &aero, |p| p.aero = aero.model),
         calibration,
         2.0,
@@ -661,7 +652,7 @@ fn main() -> ! {
     );
     let sub = substructure_elements_params();
     bench_board(
-        "substructure2-elements",
+        "board-substructure2-elements",
         &board_params(ModelKind::Substructure, &sub, |p| {
             p.substructure = sub.model.first_channels::<BOARD_CHANNELS>();
         }),

@@ -793,6 +793,9 @@ impl SubstructureSection {
             // The check does not depend on the channels: any one serves.
             let mut one = self.clone();
             one.channels.truncate(1);
+            for e in &mut one.elements {
+                e.road_coefficients.truncate(1);
+            }
             one.params::<1>()
         }) else {
             return Ok(()); // sizes are reported by `params` itself
