@@ -316,20 +316,9 @@ pub struct BoardController {
 impl BoardController {
     /// An idle controller of the configuration `prepared`, its demand at the safe demand.
     pub fn new(prepared: &BoardPrepared) -> Self {
-        let running = match prepared.prepared {
-            Prepared::Tyre1(p) => Running::Tyre1(Controller::new(p)),
-            Prepared::Tyre2(p) => Running::Tyre2(Controller::new(p)),
-            Prepared::Tyre3(p) => Running::Tyre3(Controller::new(p)),
-            Prepared::Tyre4(p) => Running::Tyre4(Controller::new(p)),
-            Prepared::Aero(p) => Running::Aero(Controller::new(p)),
-            Prepared::Sub1(p) => Running::Sub1(Controller::new(p)),
-            Prepared::Sub2(p) => Running::Sub2(Controller::new(p)),
-            Prepared::Sub3(p) => Running::Sub3(Controller::new(p)),
-            Prepared::Sub4(p) => Running::Sub4(Controller::new(p)),
-        };
         Self {
             params: prepared.params,
-            running,
+            running: running(&prepared.prepared),
         }
     }
 
@@ -377,7 +366,7 @@ impl BoardController {
     pub fn swap(&mut self, prepared: &BoardPrepared) -> Result<(), SwapError> {
         let same_dt = prepared_dt(&prepared.prepared).to_bits() == self.dt().to_bits();
         let same = same_dt
-            && match (&mut self.running, prepared.prepared) {
+            && match (&mut self.running, &prepared.prepared) {
                 (Running::Tyre1(c), Prepared::Tyre1(p)) => c.swap_params(p).is_ok(),
                 (Running::Tyre2(c), Prepared::Tyre2(p)) => c.swap_params(p).is_ok(),
                 (Running::Tyre3(c), Prepared::Tyre3(p)) => c.swap_params(p).is_ok(),
@@ -398,13 +387,14 @@ impl BoardController {
         }
         let demand = self.demand();
         let channels = self.channels();
-        let mut next = Self::new(prepared);
+        // Built in place (the controllers are kilobytes: no copy of the whole on the stack).
+        self.params = prepared.params;
+        self.running = running(&prepared.prepared);
         let mut carried = [None; BOARD_CHANNELS];
         for (c, d) in carried.iter_mut().zip(demand).take(channels) {
             *c = Some(d);
         }
-        each!(&mut next.running, c => c.continue_demand(&first_option(&carried)));
-        *self = next;
+        each!(&mut self.running, c => c.continue_demand(&first_option(&carried)));
         Ok(())
     }
 
@@ -455,6 +445,21 @@ impl BoardController {
             };
             widen(&c.step(&narrow))
         })
+    }
+}
+
+/// An idle controller of the configuration `p`.
+fn running(p: &Prepared) -> Running {
+    match p {
+        Prepared::Tyre1(p) => Running::Tyre1(Controller::new(*p)),
+        Prepared::Tyre2(p) => Running::Tyre2(Controller::new(*p)),
+        Prepared::Tyre3(p) => Running::Tyre3(Controller::new(*p)),
+        Prepared::Tyre4(p) => Running::Tyre4(Controller::new(*p)),
+        Prepared::Aero(p) => Running::Aero(Controller::new(*p)),
+        Prepared::Sub1(p) => Running::Sub1(Controller::new(*p)),
+        Prepared::Sub2(p) => Running::Sub2(Controller::new(*p)),
+        Prepared::Sub3(p) => Running::Sub3(Controller::new(*p)),
+        Prepared::Sub4(p) => Running::Sub4(Controller::new(*p)),
     }
 }
 

@@ -332,7 +332,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
     /// filters restart at rest at the model's next output and the demand continues from
     /// where it is. The sample period must
     /// match; on error nothing changes.
-    pub fn swap_params(&mut self, prepared: PreparedParams<M, CH>) -> Result<(), ParamError> {
+    pub fn swap_params(&mut self, prepared: &PreparedParams<M, CH>) -> Result<(), ParamError> {
         if prepared.dt.to_bits() != self.prepared.dt.to_bits() {
             return Err(ParamError::Inconsistent(Field::SamplePeriod));
         }
@@ -345,7 +345,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             self.blend = true;
         }
         self.settling = true;
-        self.prepared = prepared;
+        self.prepared = prepared.clone();
         Ok(())
     }
 
@@ -381,7 +381,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         params: &ControllerParams<M::Params, CH>,
     ) -> Result<(), ParamError> {
         let prepared = PreparedParams::new(params, self.prepared.dt)?;
-        self.swap_params(prepared)
+        self.swap_params(&prepared)
     }
 
     /// The running parameter set.

@@ -159,9 +159,10 @@ const SWITCH: WordKind = WordKind::Switch;
 
 impl BoardParams {
     /// Calls `f` with every field, in declaration order, and what it is (see the module
-    /// docs).
+    /// docs). `f` is a trait object: one copy of this long walk in the image, whatever the
+    /// callers.
     #[allow(clippy::too_many_lines)]
-    pub fn visit(&mut self, f: &mut impl FnMut(&ParamInfo, WordMut<'_>)) {
+    pub fn visit(&mut self, f: &mut dyn FnMut(&ParamInfo, WordMut<'_>)) {
         use WordMut::{Count, Real};
         let ch_max = BOARD_CHANNELS as f32;
         f(
@@ -923,6 +924,26 @@ pub fn check(info: &ParamInfo, v: f32) -> Result<(), fn(usize) -> WordError> {
         return Err(WordError::OutOfRange);
     }
     Ok(())
+}
+
+/// Calls `f` with every word's index and what it is, in page order (one walk).
+pub fn for_each_info(f: &mut dyn FnMut(usize, &ParamInfo)) {
+    let mut p = BoardParams::tyres(
+        crate::tyre::TyreParams::PAPER,
+        1,
+        crate::limits::DemandLimits {
+            min: 0.0,
+            max: 1.0,
+            rate: 1.0,
+        },
+        0.0,
+        1.0,
+    );
+    let mut k = 0;
+    p.visit(&mut |i, _| {
+        f(k, i);
+        k += 1;
+    });
 }
 
 /// What word `word` is, or `None` beyond the page.

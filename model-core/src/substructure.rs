@@ -481,6 +481,19 @@ struct Continuous<const CH: usize> {
 }
 
 impl<const CH: usize> Continuous<CH> {
+    /// Back to all zeros with `ns` states, in place (no kilobyte temporary).
+    fn reset(&mut self, ns: usize) {
+        self.ns = ns;
+        self.a.iter_mut().for_each(|r| r.fill(0.0));
+        self.b.iter_mut().flatten().for_each(|r| r.fill(0.0));
+        self.c.iter_mut().for_each(|r| r.fill(0.0));
+        self.d.iter_mut().flatten().for_each(|r| r.fill(0.0));
+        self.br.iter_mut().for_each(|r| r.fill(0.0));
+        self.dr.iter_mut().for_each(|r| r.fill(0.0));
+        self.ce.iter_mut().for_each(|r| r.fill(0.0));
+        self.de.iter_mut().flatten().for_each(|r| r.fill(0.0));
+    }
+
     fn zero(ns: usize) -> Self {
         Self {
             ns,
@@ -703,7 +716,8 @@ fn continuous<const CH: usize>(
     p: &SubstructureParams<CH>,
     causality: Causality,
     dt: f64,
-) -> Result<Continuous<CH>, ParamError> {
+    out: &mut Continuous<CH>,
+) -> Result<(), ParamError> {
     let net = network(p);
     let elements = p.used_elements();
     let n = net.n;
@@ -728,19 +742,12 @@ fn continuous<const CH: usize>(
                     }
                 }
             }
-            let mut out = Continuous::zero(2 * n + extra);
+            out.reset(2 * n + extra);
             for ch in 0..CH {
                 force[SIGNAL][net.iface[ch]][ch] -= 1.0;
             }
-            masses(
-                &net,
-                elements,
-                dt,
-                all.get(..n).unwrap_or(&[]),
-                &force,
-                &mut out,
-            )?;
-            element_motion(&net, elements, |j| Some((j, n + j)), &mut out);
+            masses(&net, elements, dt, all.get(..n).unwrap_or(&[]), &force, out)?;
+            element_motion(&net, elements, |j| Some((j, n + j)), out);
             for ch in 0..CH {
                 out.c[ch][net.iface[ch]] = 1.0;
                 if causality == Causality::AdmittanceThroughImpedance {
@@ -759,11 +766,11 @@ fn continuous<const CH: usize>(
                     }
                 }
             }
-            Ok(out)
+            Ok(())
         }
         Causality::Impedance => {
             let mut net = net;
-            let mut out = Continuous::zero(2 * n);
+            out.reset(2 * n);
             for ch in 0..CH {
                 let d = net.iface[ch];
                 let (ki, ci) = (
@@ -779,16 +786,9 @@ fn continuous<const CH: usize>(
                 out.d[SIGNAL][ch][ch] -= ki;
                 out.d[SIGNAL_RATE][ch][ch] -= ci;
             }
-            masses(
-                &net,
-                elements,
-                dt,
-                all.get(..n).unwrap_or(&[]),
-                &force,
-                &mut out,
-            )?;
-            element_motion(&net, elements, |j| Some((j, n + j)), &mut out);
-            Ok(out)
+            masses(&net, elements, dt, all.get(..n).unwrap_or(&[]), &force, out)?;
+            element_motion(&net, elements, |j| Some((j, n + j)), out);
+            Ok(())
         }
         Causality::PrescribedMotion => {
             let mut is_iface = [false; MAX_DOF];
@@ -813,13 +813,13 @@ fn continuous<const CH: usize>(
                     force[SIGNAL_ACCELERATION][j][ch] -= net.m[j][d];
                 }
             }
-            let mut out = Continuous::zero(2 * nf);
-            masses(&net, elements, dt, free, &force, &mut out)?;
+            out.reset(2 * nf);
+            masses(&net, elements, dt, free, &force, out)?;
             element_motion(
                 &net,
                 elements,
                 |j| free.iter().position(|&f| f == j).map(|a| (a, nf + a)),
-                &mut out,
+                out,
             );
             // F_i = F_n,d - (M ẍ + C ẋ + K x)_d, with ẍ_F from the free DOFs' own equations.
             for ch in 0..CH {
@@ -853,7 +853,7 @@ fn continuous<const CH: usize>(
                     out.d[ROAD_RATE][ch][i] += net.gc[d][i];
                 }
             }
-            Ok(out)
+            Ok(())
         }
     }
 }
@@ -1071,9 +1071,10 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
         let causality = params
             .causality()
             .ok_or(ParamError::OutOfRange(Field::SubstructureCausality))?;
-        let continuous = continuous(params, causality, f64::from(dt))?;
+        let mut model = Continuous::zero(0);
+        continuous(params, causality, f64::from(dt), &mut model)?;
         tustin(
-            &continuous,
+            &model,
             f64::from(dt),
             causality,
             velocity,

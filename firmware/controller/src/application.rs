@@ -531,7 +531,7 @@ impl Application {
         if self.watchdog.is_off() && settings.watchdog != WATCHDOG_OFF {
             return code::WRONG_MODE;
         }
-        match self.controller.swap_params(prepared) {
+        match self.controller.swap_params(&prepared) {
             Ok(()) => {
                 self.status_period = settings.status_period;
                 self.watchdog.limit = settings.watchdog;
