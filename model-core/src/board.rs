@@ -451,15 +451,15 @@ impl BoardController {
 /// An idle controller of the configuration `p`.
 fn running(p: &Prepared) -> Running {
     match p {
-        Prepared::Tyre1(p) => Running::Tyre1(Controller::new(p.clone())),
-        Prepared::Tyre2(p) => Running::Tyre2(Controller::new(p.clone())),
-        Prepared::Tyre3(p) => Running::Tyre3(Controller::new(p.clone())),
-        Prepared::Tyre4(p) => Running::Tyre4(Controller::new(p.clone())),
-        Prepared::Aero(p) => Running::Aero(Controller::new(p.clone())),
-        Prepared::Sub1(p) => Running::Sub1(Controller::new(p.clone())),
-        Prepared::Sub2(p) => Running::Sub2(Controller::new(p.clone())),
-        Prepared::Sub3(p) => Running::Sub3(Controller::new(p.clone())),
-        Prepared::Sub4(p) => Running::Sub4(Controller::new(p.clone())),
+        Prepared::Tyre1(p) => Running::Tyre1(Controller::new(*p)),
+        Prepared::Tyre2(p) => Running::Tyre2(Controller::new(*p)),
+        Prepared::Tyre3(p) => Running::Tyre3(Controller::new(*p)),
+        Prepared::Tyre4(p) => Running::Tyre4(Controller::new(*p)),
+        Prepared::Aero(p) => Running::Aero(Controller::new(*p)),
+        Prepared::Sub1(p) => Running::Sub1(Controller::new(*p)),
+        Prepared::Sub2(p) => Running::Sub2(Controller::new(*p)),
+        Prepared::Sub3(p) => Running::Sub3(Controller::new(*p)),
+        Prepared::Sub4(p) => Running::Sub4(Controller::new(*p)),
     }
 }
 
