@@ -50,16 +50,9 @@ pub const SLOT_STATUS_PERIOD: usize = 31;
 /// Slot of the watchdog limit N.
 pub const SLOT_WATCHDOG: usize = 32;
 
-/// How a slot's `f32` is read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// A real value within the limits.
-    Real,
-    /// An integer within the limits (a count).
-    Integer,
-    /// 0 or 1.
-    Switch,
-}
+/// How a slot's `f32` is read: model-core's word kinds (a real value, an integer, a
+/// switch), the ones its board page uses.
+pub use model_core::page::WordKind as Kind;
 
 /// One calibration parameter: what the A2L file says of it and what a write must satisfy.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,13 +91,7 @@ const fn real(
     }
 }
 
-/// Allowed range of the delta-form feed-forward coefficients β (dimensionless): a section's
-/// gain is bounded by the β's, so this bounds it at about 60 dB.
-pub const FILTER_BETA: Range = Range::new(-1.0e3, 1.0e3);
-/// Allowed range of the delta-form feedback coefficients α (dimensionless): a stable
-/// section has `α1 = (1 − p1) + (1 − p2)` and `α2 = (1 − p1)(1 − p2)` in `(0, 4)`; stability
-/// itself is checked by model-core on the whole set.
-pub const FILTER_ALPHA: Range = Range::new(0.0, 4.0);
+pub use model_core::biquad::{FILTER_ALPHA, FILTER_BETA};
 
 macro_rules! section {
     ($s:literal) => {
