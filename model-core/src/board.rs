@@ -23,6 +23,7 @@
 
 use crate::aero::{AeroModel, AeroParams};
 use crate::biquad::CascadeCoefficients;
+pub use crate::controller::fit;
 use crate::controller::{Controller, ControllerParams, Mode, ModelInput, PreparedParams, Status};
 use crate::limits::DemandLimits;
 use crate::params::{Field, ParamError};
@@ -265,16 +266,6 @@ pub enum SwapError {
     /// The model kind, channel count or sample period changes, and the controller is not
     /// Idle.
     NotIdle,
-}
-
-/// The first `B` entries of `v`, `fill` beyond its `A` (the board's four channels to a
-/// configuration's `CH` and back).
-pub fn fit<T: Copy, const A: usize, const B: usize>(v: &[T; A], fill: T) -> [T; B] {
-    let mut out = [fill; B];
-    for (o, x) in out.iter_mut().zip(v) {
-        *o = *x;
-    }
-    out
 }
 
 /// The board's controller: the running configuration's [`Controller`] (see the module

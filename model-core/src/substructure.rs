@@ -243,7 +243,7 @@ impl<const CH: usize> SubstructureParams<CH> {
         out.stiffness = self.stiffness;
         out.velocity_cutoff_hz = self.velocity_cutoff_hz;
         out.element_count = self.element_count;
-        use crate::board::fit;
+        use crate::controller::fit;
         for (to, from) in out.ground_stiffness.iter_mut().zip(&self.ground_stiffness) {
             *to = fit(from, 0.0);
         }
