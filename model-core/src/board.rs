@@ -23,6 +23,7 @@
 
 use crate::aero::{AeroModel, AeroParams};
 use crate::biquad::CascadeCoefficients;
+pub use crate::controller::fit;
 use crate::controller::{Controller, ControllerParams, Mode, ModelInput, PreparedParams, Status};
 use crate::limits::DemandLimits;
 use crate::params::{Field, ParamError};
@@ -133,40 +134,18 @@ impl BoardParams {
     /// The running configuration's controller parameters with model parameters `model`:
     /// the first `CH` channels' filters, limits and safe state.
     fn controller<P, const CH: usize>(&self, model: P) -> ControllerParams<P, CH> {
-        let mut p = ControllerParams {
+        let no_limits = DemandLimits {
+            min: 0.0,
+            max: 0.0,
+            rate: 0.0,
+        };
+        ControllerParams {
             model,
-            filter: [CascadeCoefficients::IDENTITY; CH],
-            limits: [DemandLimits {
-                min: 0.0,
-                max: 0.0,
-                rate: 0.0,
-            }; CH],
-            safe_demand: [0.0; CH],
-            safe_ramp_rate: [0.0; CH],
-        };
-        for (to, from) in p.filter.iter_mut().zip(&self.filter) {
-            *to = *from;
+            filter: fit(&self.filter, CascadeCoefficients::IDENTITY),
+            limits: fit(&self.limits, no_limits),
+            safe_demand: fit(&self.safe_demand, 0.0),
+            safe_ramp_rate: fit(&self.safe_ramp_rate, 0.0),
         }
-        for (to, from) in p.limits.iter_mut().zip(&self.limits) {
-            *to = *from;
-        }
-        for (to, from) in p.safe_demand.iter_mut().zip(&self.safe_demand) {
-            *to = *from;
-        }
-        for (to, from) in p.safe_ramp_rate.iter_mut().zip(&self.safe_ramp_rate) {
-            *to = *from;
-        }
-        p
-    }
-
-    fn tyres_of<const CH: usize>(&self) -> TyreModelParams<CH> {
-        let mut t = TyreModelParams {
-            tyre: [TyreParams::PAPER; CH],
-        };
-        for (to, from) in t.tyre.iter_mut().zip(&self.tyre.tyre) {
-            *to = *from;
-        }
-        t
     }
 
     /// Validates the running configuration for sample period `dt` (s) and derives its
@@ -182,7 +161,9 @@ impl BoardParams {
         macro_rules! tyre {
             ($ch:literal, $v:ident) => {
                 Prepared::$v(PreparedParams::new(
-                    &self.controller::<_, $ch>(self.tyres_of::<$ch>()),
+                    &self.controller::<_, $ch>(TyreModelParams {
+                        tyre: fit(&self.tyre.tyre, TyreParams::PAPER),
+                    }),
                     dt,
                 )?)
             };
@@ -287,24 +268,6 @@ pub enum SwapError {
     NotIdle,
 }
 
-/// The first `CH` channels of a board-wide array.
-fn first<const CH: usize>(v: &[f32; BOARD_CHANNELS]) -> [f32; CH] {
-    let mut out = [0.0; CH];
-    for (o, x) in out.iter_mut().zip(v) {
-        *o = *x;
-    }
-    out
-}
-
-/// A `CH`-wide array widened to the board's channels (zeros beyond).
-fn widen<const CH: usize>(v: &[f32; CH]) -> [f32; BOARD_CHANNELS] {
-    let mut out = [0.0; BOARD_CHANNELS];
-    for (o, x) in out.iter_mut().zip(v) {
-        *o = *x;
-    }
-    out
-}
-
 /// The board's controller: the running configuration's [`Controller`] (see the module
 /// docs).
 #[derive(Clone, Debug)]
@@ -394,7 +357,7 @@ impl BoardController {
         for (c, d) in carried.iter_mut().zip(demand).take(channels) {
             *c = Some(d);
         }
-        each!(&mut self.running, c => c.continue_demand(&first_option(&carried)));
+        each!(&mut self.running, c => c.continue_demand(&fit(&carried, None)));
         Ok(())
     }
 
@@ -430,7 +393,7 @@ impl BoardController {
 
     /// The last demand per board channel (zero beyond the running channels).
     pub fn demand(&self) -> [f32; BOARD_CHANNELS] {
-        each!(&self.running, c => widen(&c.demand()))
+        each!(&self.running, c => fit(&c.demand(), 0.0))
     }
 
     /// One control step on the first channels of `input`: the demand per board channel
@@ -438,12 +401,12 @@ impl BoardController {
     pub fn step(&mut self, input: &ModelInput<BOARD_CHANNELS>) -> [f32; BOARD_CHANNELS] {
         each!(&mut self.running, c => {
             let narrow = ModelInput {
-                position: first(&input.position),
-                force: first(&input.force),
-                road: first(&input.road),
+                position: fit(&input.position, 0.0),
+                force: fit(&input.force, 0.0),
+                road: fit(&input.road, 0.0),
                 speed: input.speed,
             };
-            widen(&c.step(&narrow))
+            fit(&c.step(&narrow), 0.0)
         })
     }
 }
@@ -475,13 +438,4 @@ fn prepared_dt(p: &Prepared) -> f32 {
         Prepared::Sub3(p) => p.dt(),
         Prepared::Sub4(p) => p.dt(),
     }
-}
-
-/// The first `CH` entries of a board-wide array of options.
-fn first_option<const CH: usize>(v: &[Option<f32>; BOARD_CHANNELS]) -> [Option<f32>; CH] {
-    let mut out = [None; CH];
-    for (o, x) in out.iter_mut().zip(v) {
-        *o = *x;
-    }
-    out
 }

@@ -113,6 +113,16 @@ fn channel_mask(ch: usize) -> u8 {
     }
 }
 
+/// The first `B` entries of `v`, `fill` beyond its `A` (the board's four channels to a
+/// configuration's `CH` and back).
+pub fn fit<T: Copy, const A: usize, const B: usize>(v: &[T; A], fill: T) -> [T; B] {
+    let mut out = [fill; B];
+    for (o, x) in out.iter_mut().zip(v) {
+        *o = *x;
+    }
+    out
+}
+
 /// A fixed-step numerical model serving `CH` actuator channels.
 pub trait Model<const CH: usize>: Sized + Clone {
     /// The model's tunable constants: a plain, fixed-layout struct.

@@ -592,130 +592,108 @@ impl BoardParams {
                 );
             }
             let l = &mut el.law;
-            let i = |name, unit, description, kind, r| {
-                at(item("element", name, unit, description, kind, r), e)
-            };
-            f(
-                &i(
+            for (name, unit, description, r, v) in [
+                (
                     "stiffness",
                     "N/m",
                     "linear stiffness k",
-                    REAL,
-                    range(ELEMENT_STIFFNESS),
+                    ELEMENT_STIFFNESS,
+                    &mut l.stiffness,
                 ),
-                Real(&mut l.stiffness),
-            );
-            f(
-                &i(
+                (
                     "bump_damping",
                     "N*s/m",
                     "damping in compression",
-                    REAL,
-                    range(ELEMENT_DAMPING),
+                    ELEMENT_DAMPING,
+                    &mut l.bump_damping,
                 ),
-                Real(&mut l.bump_damping),
-            );
-            f(
-                &i(
+                (
                     "rebound_damping",
                     "N*s/m",
                     "damping in extension",
-                    REAL,
-                    range(ELEMENT_DAMPING),
+                    ELEMENT_DAMPING,
+                    &mut l.rebound_damping,
                 ),
-                Real(&mut l.rebound_damping),
-            );
-            f(
-                &i(
+                (
                     "cubic_stiffness",
                     "N/m^3",
                     "cubic stiffness k3",
-                    REAL,
-                    range(ELEMENT_CUBIC_STIFFNESS),
+                    ELEMENT_CUBIC_STIFFNESS,
+                    &mut l.cubic_stiffness,
                 ),
-                Real(&mut l.cubic_stiffness),
-            );
-            f(
-                &i(
+                (
                     "quadratic_damping",
                     "N*s^2/m^2",
                     "quadratic damping c2",
-                    REAL,
-                    range(ELEMENT_QUADRATIC_DAMPING),
+                    ELEMENT_QUADRATIC_DAMPING,
+                    &mut l.quadratic_damping,
                 ),
-                Real(&mut l.quadratic_damping),
-            );
-            f(
-                &i("bump_gap", "m", "bump stop gap", REAL, range(ELEMENT_GAP)),
-                Real(&mut l.bump_gap),
-            );
-            f(
-                &i(
+                (
+                    "bump_gap",
+                    "m",
+                    "bump stop gap",
+                    ELEMENT_GAP,
+                    &mut l.bump_gap,
+                ),
+                (
                     "bump_stiffness",
                     "N/m",
                     "bump stop stiffness (0: none)",
-                    REAL,
-                    range(ELEMENT_STIFFNESS),
+                    ELEMENT_STIFFNESS,
+                    &mut l.bump_stiffness,
                 ),
-                Real(&mut l.bump_stiffness),
-            );
-            f(
-                &i(
+                (
                     "rebound_gap",
                     "m",
                     "rebound stop gap",
-                    REAL,
-                    range(ELEMENT_GAP),
+                    ELEMENT_GAP,
+                    &mut l.rebound_gap,
                 ),
-                Real(&mut l.rebound_gap),
-            );
-            f(
-                &i(
+                (
                     "rebound_stiffness",
                     "N/m",
                     "rebound stop stiffness (0: none)",
-                    REAL,
-                    range(ELEMENT_STIFFNESS),
+                    ELEMENT_STIFFNESS,
+                    &mut l.rebound_stiffness,
                 ),
-                Real(&mut l.rebound_stiffness),
-            );
-            f(
-                &i(
+                (
                     "friction_force",
                     "N",
                     "dry friction F_c (0: none)",
-                    REAL,
-                    range(ELEMENT_FRICTION),
+                    ELEMENT_FRICTION,
+                    &mut l.friction_force,
                 ),
-                Real(&mut l.friction_force),
-            );
-            f(
-                &i(
+                (
                     "friction_velocity",
                     "m/s",
                     "dry friction smoothing velocity v_eps",
-                    REAL,
-                    range(ELEMENT_FRICTION_VELOCITY),
+                    ELEMENT_FRICTION_VELOCITY,
+                    &mut l.friction_velocity,
                 ),
-                Real(&mut l.friction_velocity),
-            );
-            f(
-                &i(
+                (
                     "preload",
                     "N",
                     "static preload (the lift-off threshold)",
-                    REAL,
-                    range(ELEMENT_PRELOAD),
+                    ELEMENT_PRELOAD,
+                    &mut l.preload,
                 ),
-                Real(&mut l.preload),
-            );
+            ] {
+                f(
+                    &at(item("element", name, unit, description, REAL, range(r)), e),
+                    Real(v),
+                );
+            }
             f(
-                &i(
-                    "lift_off",
-                    "-",
-                    "the element only pushes (1) or pulls too (0)",
-                    SWITCH,
-                    (0.0, 1.0),
+                &at(
+                    item(
+                        "element",
+                        "lift_off",
+                        "-",
+                        "the element only pushes (1) or pulls too (0)",
+                        SWITCH,
+                        (0.0, 1.0),
+                    ),
+                    e,
                 ),
                 Count(&mut l.lift_off),
             );
@@ -736,94 +714,74 @@ impl BoardParams {
                 Count(&mut filter.sections),
             );
             for (k, sec) in filter.section.iter_mut().enumerate() {
-                let i = |name, description, r| {
-                    at2(item("filter", name, "-", description, REAL, r), c, k)
-                };
-                f(
-                    &i(
+                for (name, description, r, v) in [
+                    (
                         "beta0",
                         "section [c][s]: beta0 = b0 (delta form)",
-                        range(FILTER_BETA),
+                        FILTER_BETA,
+                        &mut sec.beta0,
                     ),
-                    Real(&mut sec.beta0),
-                );
-                f(
-                    &i(
+                    (
                         "beta1",
                         "section [c][s]: beta1 = 2 b0 + b1 (delta form)",
-                        range(FILTER_BETA),
+                        FILTER_BETA,
+                        &mut sec.beta1,
                     ),
-                    Real(&mut sec.beta1),
-                );
-                f(
-                    &i(
+                    (
                         "beta2",
                         "section [c][s]: beta2 = b0 + b1 + b2 (delta form)",
-                        range(FILTER_BETA),
+                        FILTER_BETA,
+                        &mut sec.beta2,
                     ),
-                    Real(&mut sec.beta2),
-                );
-                f(
-                    &i(
+                    (
                         "alpha1",
                         "section [c][s]: alpha1 = 2 + a1 (delta form)",
-                        range(FILTER_ALPHA),
+                        FILTER_ALPHA,
+                        &mut sec.alpha1,
                     ),
-                    Real(&mut sec.alpha1),
-                );
-                f(
-                    &i(
+                    (
                         "alpha2",
                         "section [c][s]: alpha2 = 1 + a1 + a2 (delta form)",
-                        range(FILTER_ALPHA),
+                        FILTER_ALPHA,
+                        &mut sec.alpha2,
                     ),
-                    Real(&mut sec.alpha2),
-                );
+                ] {
+                    f(
+                        &at2(item("filter", name, "-", description, REAL, range(r)), c, k),
+                        Real(v),
+                    );
+                }
             }
         }
         for (c, l) in self.limits.iter_mut().enumerate() {
-            f(
-                &at(
-                    item(
-                        "limits",
-                        "demand_min",
-                        "N",
-                        "lowest demand of channel c (m under position control)",
-                        REAL,
-                        range(DEMAND_AMPLITUDE),
-                    ),
-                    c,
+            for (name, unit, description, r, v) in [
+                (
+                    "demand_min",
+                    "N",
+                    "lowest demand of channel c (m under position control)",
+                    DEMAND_AMPLITUDE,
+                    &mut l.min,
                 ),
-                Real(&mut l.min),
-            );
-            f(
-                &at(
-                    item(
-                        "limits",
-                        "demand_max",
-                        "N",
-                        "highest demand of channel c",
-                        REAL,
-                        range(DEMAND_AMPLITUDE),
-                    ),
-                    c,
+                (
+                    "demand_max",
+                    "N",
+                    "highest demand of channel c",
+                    DEMAND_AMPLITUDE,
+                    &mut l.max,
                 ),
-                Real(&mut l.max),
-            );
-            f(
-                &at(
-                    item(
-                        "limits",
-                        "demand_rate",
-                        "N/s",
-                        "demand rate limit of channel c",
-                        REAL,
-                        range(DEMAND_RATE),
-                    ),
-                    c,
+                (
+                    "demand_rate",
+                    "N/s",
+                    "demand rate limit of channel c",
+                    DEMAND_RATE,
+                    &mut l.rate,
                 ),
-                Real(&mut l.rate),
-            );
+            ] {
+                f(
+                    &at(item("limits", name, unit, description, REAL, range(r)), c),
+                    Real(v),
+                );
+            }
         }
         for (c, v) in self.safe_demand.iter_mut().enumerate() {
             f(
@@ -896,8 +854,8 @@ pub fn from_words(words: &[f32; WORDS]) -> Result<BoardParams, WordError> {
     p.visit(&mut |info, w| {
         let v = words.get(k).copied().unwrap_or(f32::NAN);
         if error.is_none() {
-            match check(info, v) {
-                Err(e) => error = Some(e(k)),
+            match check(info, k, v) {
+                Err(e) => error = Some(e),
                 Ok(()) => match w {
                     WordMut::Real(x) => *x = v,
                     WordMut::Count(x) => *x = v as u32,
@@ -912,16 +870,13 @@ pub fn from_words(words: &[f32; WORDS]) -> Result<BoardParams, WordError> {
     }
 }
 
-/// Checks one word against its item.
-pub fn check(info: &ParamInfo, v: f32) -> Result<(), fn(usize) -> WordError> {
+/// Checks value `v` of word `word` against its item `info`.
+pub fn check(info: &ParamInfo, word: usize, v: f32) -> Result<(), WordError> {
     if !v.is_finite() {
-        return Err(WordError::NotFinite);
+        return Err(WordError::NotFinite(word));
     }
-    if v < info.min || v > info.max {
-        return Err(WordError::OutOfRange);
-    }
-    if info.kind != WordKind::Real && libm::truncf(v) != v {
-        return Err(WordError::OutOfRange);
+    if v < info.min || v > info.max || (info.kind != WordKind::Real && libm::truncf(v) != v) {
+        return Err(WordError::OutOfRange(word));
     }
     Ok(())
 }

@@ -243,25 +243,23 @@ impl<const CH: usize> SubstructureParams<CH> {
         out.stiffness = self.stiffness;
         out.velocity_cutoff_hz = self.velocity_cutoff_hz;
         out.element_count = self.element_count;
+        use crate::controller::fit;
         for (to, from) in out.ground_stiffness.iter_mut().zip(&self.ground_stiffness) {
-            for (t, f) in to.iter_mut().zip(from) {
-                *t = *f;
-            }
+            *to = fit(from, 0.0);
         }
         for (to, from) in out.ground_damping.iter_mut().zip(&self.ground_damping) {
-            for (t, f) in to.iter_mut().zip(from) {
-                *t = *f;
-            }
+            *to = fit(from, 0.0);
         }
-        for (to, from) in out.interface.iter_mut().zip(&self.interface) {
-            *to = *from;
-        }
+        let unconnected = InterfaceParams {
+            dof: 0,
+            stiffness: 0.0,
+            damping: 0.0,
+        };
+        out.interface = fit(&self.interface, unconnected);
         for (to, from) in out.elements.iter_mut().zip(&self.elements) {
             to.dof_coefficients = from.dof_coefficients;
             to.law = from.law;
-            for (t, f) in to.road_coefficients.iter_mut().zip(&from.road_coefficients) {
-                *t = *f;
-            }
+            to.road_coefficients = fit(&from.road_coefficients, 0.0);
         }
         out
     }
@@ -1130,23 +1128,27 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
             *v = est.step(&p.velocity, *z);
         }
         let ns = p.states;
-        // Element motion m = C_e ξ + Σ D_e u + D_e,r r⁻, remainders r = F(m) − linear part.
-        let ne = p.elements;
-        let mut motion = [0.0; ELEMENT_OUTPUTS];
-        mat_vec_acc(&mut motion, &p.c_e, &self.state, 2 * ne, ns);
-        for (d, uk) in p.d_e.iter().zip(&u) {
-            mat_vec_acc(&mut motion, d, uk, 2 * ne, CH);
-        }
-        mat_vec_acc(&mut motion, &p.d_er, &self.remainder, 2 * ne, ne);
-        let mut r = [0.0; MAX_ELEMENTS];
-        remainders(p, &motion, &mut r);
-        // y = C_d ξ + Σ D u + D_r r ;  ξ += Δ ξ + Σ Γ u + Γ_r r
+        // y = C_d ξ + Σ D u (+ D_r r) ;  ξ += Δ ξ + Σ Γ u (+ Γ_r r)
         let mut y = [0.0; CH];
         mat_vec_acc(&mut y, &p.c, &self.state, CH, ns);
-        mat_vec_acc(&mut y, &p.d_r, &r, CH, ne);
         let mut dx = [0.0; MAX_STATES];
         mat_vec_acc(&mut dx, &p.delta, &self.state, ns, ns);
-        mat_vec_acc(&mut dx, &p.gamma_r, &r, ns, ne);
+        let ne = p.elements;
+        if ne > 0 {
+            // Element motion m = C_e ξ + Σ D_e u + D_e,r r⁻, remainders r = F(m) − linear
+            // part (a linear substructure skips all of it).
+            let mut motion = [0.0; ELEMENT_OUTPUTS];
+            mat_vec_acc(&mut motion, &p.c_e, &self.state, 2 * ne, ns);
+            for (d, uk) in p.d_e.iter().zip(&u) {
+                mat_vec_acc(&mut motion, d, uk, 2 * ne, CH);
+            }
+            mat_vec_acc(&mut motion, &p.d_er, &self.remainder, 2 * ne, ne);
+            let mut r = [0.0; MAX_ELEMENTS];
+            remainders(p, &motion, &mut r);
+            mat_vec_acc(&mut y, &p.d_r, &r, CH, ne);
+            mat_vec_acc(&mut dx, &p.gamma_r, &r, ns, ne);
+            self.remainder = r;
+        }
         for ((d, gamma), uk) in p.d.iter().zip(&p.gamma).zip(&u) {
             mat_vec_acc(&mut y, d, uk, CH, CH);
             mat_vec_acc(&mut dx, gamma, uk, ns, CH);
@@ -1154,7 +1156,6 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
         for (x, d) in self.state.iter_mut().zip(dx) {
             *x += d;
         }
-        self.remainder = r;
         y
     }
 

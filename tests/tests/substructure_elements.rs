@@ -10,8 +10,8 @@
 //! simulated in `f64` by the structure simulation diagnosis and the rig use (RK4 with
 //! sub-steps, inputs interpolated linearly), its interface force `−F_(B_i)`.
 //!
-//! The inputs come from a generator written here (random-phase multisines and a swept sine,
-//! seeded), large enough that the stops engage most of the time. Bounds: RMS difference
+//! The inputs are random-phase multisines (the workspace's SplitMix64, seeded) and a swept
+//! sine, written here, large enough that the stops engage most of the time. Bounds: RMS difference
 //! within 2 % of the force's RMS and the worst sample within 5 % of the force's peak, for
 //! the nonlinear part and for its linear counterpart (the same file without its effects),
 //! and the effects adding at most 0.5 percentage points of RMS difference to the linear
@@ -31,6 +31,7 @@
 use mil::setup::SetUp;
 use mil_diagnose::simulate::{prepare_inputs, simulate};
 use mil_diagnose::{Model, Record};
+use mil_numerics::rng::SplitMix64;
 use model_core::{Model as _, ModelInput, SubstructureModel, SubstructureParams};
 use std::path::PathBuf;
 
@@ -94,19 +95,6 @@ fn reference(numerical: &str) -> Model {
     Model::from_toml(&text).expect("reference structure valid")
 }
 
-/// A small deterministic generator (SplitMix64), independent of the workspace's.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Inputs `(x_p, z_n)` (m) per sample.
 enum Excitation {
     /// Random-phase multisines, 0.5–25 Hz, with RMS `x_p`, `z_n` (m).
@@ -120,10 +108,15 @@ impl Excitation {
         let t = |k: usize| k as f64 / FS;
         match *self {
             Excitation::Multisine { seed, rms } => {
-                let mut rng = SplitMix(seed);
+                let mut rng = SplitMix64::new(seed);
                 let mut multisine = |rms: f64| {
                     let tones: Vec<(f64, f64)> = (0..40)
-                        .map(|_| (0.5 + 24.5 * rng.next(), std::f64::consts::TAU * rng.next()))
+                        .map(|_| {
+                            (
+                                0.5 + 24.5 * rng.uniform(),
+                                std::f64::consts::TAU * rng.uniform(),
+                            )
+                        })
                         .collect();
                     let a = rms * (2.0 / tones.len() as f64).sqrt();
                     (0..n)

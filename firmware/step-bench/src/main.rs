@@ -69,6 +69,7 @@ use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio, hprintln};
+use model_core::board::fit;
 use model_core::{
     AeroModel, AeroParams, BiquadCoefficients, BoardController, BoardParams, CascadeCoefficients,
     Causality, Controller, ControllerParams, DemandLimits, ElementLaw, Mode, Model, ModelInput,
@@ -356,12 +357,10 @@ fn board_params<const CH: usize>(
 ) -> BoardParams {
     let mut p = BoardParams::tyres(TyreParams::PAPER, CH as u32, common.limits[0], 0.0, 1.0);
     p.kind = kind as u32;
-    for c in 0..CH.min(BOARD_CHANNELS) {
-        p.filter[c] = common.filter[c];
-        p.limits[c] = common.limits[c];
-        p.safe_demand[c] = common.safe_demand[c];
-        p.safe_ramp_rate[c] = common.safe_ramp_rate[c];
-    }
+    p.filter = fit(&common.filter, CascadeCoefficients::IDENTITY);
+    p.limits = fit(&common.limits, common.limits[0]);
+    p.safe_demand = fit(&common.safe_demand, 0.0);
+    p.safe_ramp_rate = fit(&common.safe_ramp_rate, 1.0);
     model(&mut p);
     p
 }
@@ -373,12 +372,12 @@ fn widen<const CH: usize>(
     move |s, c, wide| {
         let mut narrow = ModelInput::<CH>::default();
         fill(s, c, &mut narrow);
-        for k in 0..CH.min(BOARD_CHANNELS) {
-            wide.position[k] = narrow.position[k];
-            wide.force[k] = narrow.force[k];
-            wide.road[k] = narrow.road[k];
-        }
-        wide.speed = narrow.speed;
+        *wide = ModelInput {
+            position: fit(&narrow.position, 0.0),
+            force: fit(&narrow.force, 0.0),
+            road: fit(&narrow.road, 0.0),
+            speed: narrow.speed,
+        };
     }
 }
 

@@ -849,6 +849,44 @@ mod tests {
     use crate::setup::{SetUp, DEFAULT_SETUP};
     use std::path::Path;
 
+    /// Two masses on two channels, each with a road element; the second element's stop is
+    /// too stiff for 2 kHz on its 10 kg (k_b T²/m = 5e7 · 2.5e-7 / 10 = 1.25): named,
+    /// whatever the channel count; softer, accepted.
+    #[test]
+    fn a_too_stiff_element_is_named_on_any_channel_count() {
+        use super::{BoardElement, SubstructureChannel, SubstructureSection};
+        let element = |name: &str, dof: usize, bump_stiffness: f32| BoardElement {
+            name: name.into(),
+            dof_coefficients: (0..2).map(|j| if j == dof { -1.0 } else { 0.0 }).collect(),
+            road_coefficients: (0..2).map(|c| if c == dof { 1.0 } else { 0.0 }).collect(),
+            law: model_core::ElementLaw {
+                bump_gap: 0.001,
+                bump_stiffness,
+                ..model_core::ElementLaw::linear(4.0e4, 200.0)
+            },
+        };
+        let channel = |dof: &str| SubstructureChannel {
+            dof: dof.into(),
+            interface_stiffness_n_per_m: 1.0e4,
+            interface_damping_n_s_per_m: 5.0,
+            road: Vec::new(),
+        };
+        let mut s = SubstructureSection {
+            dofs: vec!["a".into(), "b".into()],
+            mass: vec![vec![10.0, 0.0], vec![0.0, 10.0]],
+            damping: vec![vec![0.0; 2]; 2],
+            stiffness: vec![vec![0.0; 2]; 2],
+            velocity_cutoff_hz: 0.0,
+            channels: vec![channel("a"), channel("b")],
+            elements: vec![element("front", 0, 1.0e5), element("rear", 1, 5.0e7)],
+        };
+        let e = s.check_elements(5.0e-4).unwrap_err().to_string();
+        assert!(e.contains("\"rear\"") && e.contains("too stiff"), "{e}");
+        s.elements[1].law.bump_stiffness = 3.0e7;
+        assert!(s.check_elements(5.0e-4).is_ok());
+        assert!(s.params::<2>().is_ok());
+    }
+
     fn run(text: &str) -> anyhow::Result<Validated> {
         SetUp::from_toml(
             text,

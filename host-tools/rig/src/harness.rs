@@ -84,25 +84,14 @@ impl<const CH: usize> Board<CH> for model_core::BoardController {
                 self.channels()
             ));
         }
-        let mut wide = ModelInput::<{ model_core::BOARD_CHANNELS }> {
+        use model_core::board::fit;
+        let wide = ModelInput {
+            position: fit(&input.position, 0.0),
+            force: fit(&input.force, 0.0),
+            road: fit(&input.road, 0.0),
             speed: input.speed,
-            ..ModelInput::default()
         };
-        for (to, from) in [
-            (&mut wide.position, &input.position),
-            (&mut wide.force, &input.force),
-            (&mut wide.road, &input.road),
-        ] {
-            for (t, f) in to.iter_mut().zip(from) {
-                *t = *f;
-            }
-        }
-        let demand = model_core::BoardController::step(self, &wide);
-        let mut out = [0.0; CH];
-        for (o, d) in out.iter_mut().zip(demand) {
-            *o = d;
-        }
-        Ok(out)
+        Ok(fit(&model_core::BoardController::step(self, &wide), 0.0))
     }
 
     fn status(&self) -> Status {
