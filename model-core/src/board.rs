@@ -27,7 +27,9 @@ pub use crate::controller::fit;
 use crate::controller::{Controller, ControllerParams, Mode, ModelInput, PreparedParams, Status};
 use crate::limits::DemandLimits;
 use crate::params::{Field, ParamError};
-use crate::substructure::{SubstructureModel, SubstructureParams};
+use crate::substructure::{
+    InterfaceParams, SubstructureModel, SubstructureParams, SubstructurePrepared,
+};
 use crate::tyre::{TyreModel, TyreModelParams, TyreParams};
 
 /// Most actuator channels of a board configuration.
@@ -132,73 +134,79 @@ impl BoardParams {
     }
 
     /// The running configuration's controller parameters with model parameters `model`:
-    /// the first `CH` channels' filters, limits and safe state.
+    /// the first `CH` channels' filters, limits and safe state; channels from
+    /// `self.channels` on (a substructure wider than its configuration) get no filter,
+    /// [`UNUSED_LIMITS`] and a safe demand of zero, whatever the page holds for them.
     fn controller<P, const CH: usize>(&self, model: P) -> ControllerParams<P, CH> {
-        let no_limits = DemandLimits {
-            min: 0.0,
-            max: 0.0,
-            rate: 0.0,
-        };
-        ControllerParams {
+        let mut p = ControllerParams {
             model,
             filter: fit(&self.filter, CascadeCoefficients::IDENTITY),
-            limits: fit(&self.limits, no_limits),
+            limits: fit(&self.limits, UNUSED_LIMITS),
             safe_demand: fit(&self.safe_demand, 0.0),
-            safe_ramp_rate: fit(&self.safe_ramp_rate, 0.0),
-        }
+            safe_ramp_rate: fit(&self.safe_ramp_rate, UNUSED_RAMP_RATE),
+        };
+        let used = self.channels as usize;
+        p.filter
+            .iter_mut()
+            .skip(used)
+            .for_each(|f| *f = CascadeCoefficients::IDENTITY);
+        p.limits
+            .iter_mut()
+            .skip(used)
+            .for_each(|l| *l = UNUSED_LIMITS);
+        p.safe_demand.iter_mut().skip(used).for_each(|d| *d = 0.0);
+        p.safe_ramp_rate
+            .iter_mut()
+            .skip(used)
+            .for_each(|r| *r = UNUSED_RAMP_RATE);
+        p
     }
 
     /// Validates the running configuration for sample period `dt` (s) and derives its
-    /// coefficients; on error the field at fault.
+    /// coefficients; on error the field at fault. (On the board, prepare in place with
+    /// [`BoardPrepared::prepare`]: the result is kilobytes.)
     pub fn prepare(&self, dt: f32) -> Result<BoardPrepared, ParamError> {
-        let kind = self
-            .model_kind()
-            .ok_or(ParamError::OutOfRange(Field::ModelKind))?;
-        let (lo, hi) = kind.channel_range();
-        if !(lo..=hi).contains(&self.channels) {
-            return Err(ParamError::OutOfRange(Field::Channels));
+        let mut out = BoardPrepared::BLANK;
+        out.params = *self;
+        out.prepare(dt)?;
+        Ok(out)
+    }
+
+    /// The substructure as the board runs it: [`BOARD_CHANNELS`] wide, the channels from
+    /// `channels` on [`UNCONNECTED`](crate::substructure::UNCONNECTED) (no coupling, no
+    /// road input).
+    pub fn running_substructure(&self) -> SubstructureParams<BOARD_CHANNELS> {
+        let mut s = self.substructure;
+        let used = self.channels as usize;
+        s.interface
+            .iter_mut()
+            .skip(used)
+            .for_each(|i| *i = InterfaceParams::NONE);
+        for row in s.ground_stiffness.iter_mut().chain(&mut s.ground_damping) {
+            row.iter_mut().skip(used).for_each(|v| *v = 0.0);
         }
-        macro_rules! tyre {
-            ($ch:literal, $v:ident) => {
-                Prepared::$v(PreparedParams::new(
-                    &self.controller::<_, $ch>(TyreModelParams {
-                        tyre: fit(&self.tyre.tyre, TyreParams::PAPER),
-                    }),
-                    dt,
-                )?)
-            };
+        for e in &mut s.elements {
+            e.road_coefficients
+                .iter_mut()
+                .skip(used)
+                .for_each(|v| *v = 0.0);
         }
-        macro_rules! sub {
-            ($ch:literal, $v:ident) => {
-                Prepared::$v(PreparedParams::new(
-                    &self.controller::<_, $ch>(self.substructure.first_channels::<$ch>()),
-                    dt,
-                )?)
-            };
-        }
-        let prepared = match (kind, self.channels) {
-            (ModelKind::Tyre, 1) => tyre!(1, Tyre1),
-            (ModelKind::Tyre, 2) => tyre!(2, Tyre2),
-            (ModelKind::Tyre, 3) => tyre!(3, Tyre3),
-            (ModelKind::Tyre, _) => tyre!(4, Tyre4),
-            (ModelKind::Aero, _) => Prepared::Aero(PreparedParams::new(
-                &self.controller::<_, 2>(self.aero),
-                dt,
-            )?),
-            (ModelKind::Substructure, 1) => sub!(1, Sub1),
-            (ModelKind::Substructure, 2) => sub!(2, Sub2),
-            (ModelKind::Substructure, 3) => sub!(3, Sub3),
-            (ModelKind::Substructure, _) => sub!(4, Sub4),
-        };
-        Ok(BoardPrepared {
-            params: *self,
-            prepared,
-        })
+        s
     }
 }
 
-/// The running configuration's validated parameters, one variant per kind and channel
-/// count.
+/// Demand limits of a channel the running configuration does not use (its demand is zero).
+const UNUSED_LIMITS: DemandLimits = DemandLimits {
+    min: -1.0,
+    max: 1.0,
+    rate: 1.0,
+};
+/// Safe ramp rate of a channel the running configuration does not use.
+const UNUSED_RAMP_RATE: f32 = 1.0;
+
+/// The running configuration's validated parameters, one variant per kind and tyre
+/// channel count (the substructure runs [`BOARD_CHANNELS`] wide, its unused channels
+/// unconnected: one copy of its code).
 #[derive(Clone, Copy, Debug)]
 #[allow(clippy::large_enum_variant)] // one lives at a time; no heap on the board
 enum Prepared {
@@ -207,24 +215,124 @@ enum Prepared {
     Tyre3(PreparedParams<TyreModel<3>, 3>),
     Tyre4(PreparedParams<TyreModel<4>, 4>),
     Aero(PreparedParams<AeroModel, 2>),
-    Sub1(PreparedParams<SubstructureModel<1>, 1>),
-    Sub2(PreparedParams<SubstructureModel<2>, 2>),
-    Sub3(PreparedParams<SubstructureModel<3>, 3>),
-    Sub4(PreparedParams<SubstructureModel<4>, 4>),
+    Sub(PreparedParams<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS>),
 }
 
-/// A validated [`BoardParams`] with the running configuration's derived coefficients, ready
-/// to be swapped in.
+/// A substructure variant with no valid coefficients: the place its set is prepared into.
+const SUB_BLANK: Prepared = Prepared::Sub(PreparedParams::unprepared(
+    ControllerParams {
+        model: SubstructureParams::zeroed(1, crate::Causality::Impedance),
+        filter: [CascadeCoefficients::IDENTITY; BOARD_CHANNELS],
+        limits: [UNUSED_LIMITS; BOARD_CHANNELS],
+        safe_demand: [0.0; BOARD_CHANNELS],
+        safe_ramp_rate: [UNUSED_RAMP_RATE; BOARD_CHANNELS],
+    },
+    SubstructurePrepared::ZERO,
+));
+
+/// A [`BoardParams`] with the running configuration's derived coefficients. Prepared in
+/// place ([`BoardPrepared::prepare`]: on the board it is kilobytes, so it lives in one
+/// place and is never returned by value there); only a successfully prepared one is
+/// [`BoardPrepared::is_ready`] and can be swapped in.
 #[derive(Clone, Copy, Debug)]
 pub struct BoardPrepared {
     params: BoardParams,
     prepared: Prepared,
+    ready: bool,
 }
 
 impl BoardPrepared {
-    /// The parameter set it was prepared from.
+    /// Not prepared, holding the default tyre set: a place to prepare into.
+    pub const BLANK: Self = Self {
+        params: BoardParams::tyres(TyreParams::PAPER, 1, UNUSED_LIMITS, 0.0, UNUSED_RAMP_RATE),
+        prepared: SUB_BLANK,
+        ready: false,
+    };
+
+    /// The parameter set it holds.
     pub fn params(&self) -> &BoardParams {
         &self.params
+    }
+
+    /// The parameter set to change before [`BoardPrepared::prepare`]; no longer ready.
+    pub fn params_mut(&mut self) -> &mut BoardParams {
+        self.ready = false;
+        &mut self.params
+    }
+
+    /// `true` when the set it holds was prepared successfully.
+    pub fn is_ready(&self) -> bool {
+        self.ready
+    }
+
+    /// Validates the running configuration of the set it holds for sample period `dt` (s)
+    /// and derives its coefficients, in place; on error the field at fault, and not ready.
+    pub fn prepare(&mut self, dt: f32) -> Result<(), ParamError> {
+        self.ready = false;
+        let p = &self.params;
+        let kind = p
+            .model_kind()
+            .ok_or(ParamError::OutOfRange(Field::ModelKind))?;
+        let (lo, hi) = kind.channel_range();
+        if !(lo..=hi).contains(&p.channels) {
+            return Err(ParamError::OutOfRange(Field::Channels));
+        }
+        match (kind, p.channels) {
+            (ModelKind::Substructure, _) => prepare_substructure(p, dt, &mut self.prepared)?,
+            _ => prepare_small(p, kind, dt, &mut self.prepared)?,
+        }
+        self.ready = true;
+        Ok(())
+    }
+}
+
+/// Prepares the tyre and aero configurations (hundreds of bytes: built by value).
+#[inline(never)]
+fn prepare_small(
+    p: &BoardParams,
+    kind: ModelKind,
+    dt: f32,
+    out: &mut Prepared,
+) -> Result<(), ParamError> {
+    macro_rules! tyre {
+        ($ch:literal, $v:ident) => {
+            Prepared::$v(PreparedParams::new(
+                &p.controller::<_, $ch>(TyreModelParams {
+                    tyre: fit(&p.tyre.tyre, TyreParams::PAPER),
+                }),
+                dt,
+            )?)
+        };
+    }
+    *out = match (kind, p.channels) {
+        (ModelKind::Aero, _) => {
+            Prepared::Aero(PreparedParams::new(&p.controller::<_, 2>(p.aero), dt)?)
+        }
+        (_, 1) => tyre!(1, Tyre1),
+        (_, 2) => tyre!(2, Tyre2),
+        (_, 3) => tyre!(3, Tyre3),
+        _ => tyre!(4, Tyre4),
+    };
+    Ok(())
+}
+
+/// Makes `out` the substructure variant (not inlined: a copy of the blank variant, if the
+/// compiler makes one, stays out of the preparing frame).
+#[inline(never)]
+fn to_substructure(out: &mut Prepared) {
+    *out = SUB_BLANK;
+}
+
+/// Prepares the substructure in place (kilobytes of coefficients: no copy of them).
+#[inline(never)]
+fn prepare_substructure(p: &BoardParams, dt: f32, out: &mut Prepared) -> Result<(), ParamError> {
+    if !matches!(out, Prepared::Sub(_)) {
+        to_substructure(out);
+    }
+    let params = p.controller::<_, BOARD_CHANNELS>(p.running_substructure());
+    match out {
+        Prepared::Sub(s) => s.prepare_into(&params, dt),
+        _ => Err(ParamError::OutOfRange(Field::ModelKind)),
     }
 }
 
@@ -237,10 +345,7 @@ enum Running {
     Tyre3(Controller<TyreModel<3>, 3>),
     Tyre4(Controller<TyreModel<4>, 4>),
     Aero(Controller<AeroModel, 2>),
-    Sub1(Controller<SubstructureModel<1>, 1>),
-    Sub2(Controller<SubstructureModel<2>, 2>),
-    Sub3(Controller<SubstructureModel<3>, 3>),
-    Sub4(Controller<SubstructureModel<4>, 4>),
+    Sub(Controller<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS>),
 }
 
 /// Applies `$body` to the controller `$c` of whichever variant `$running` holds.
@@ -252,10 +357,7 @@ macro_rules! each {
             Running::Tyre3($c) => $body,
             Running::Tyre4($c) => $body,
             Running::Aero($c) => $body,
-            Running::Sub1($c) => $body,
-            Running::Sub2($c) => $body,
-            Running::Sub3($c) => $body,
-            Running::Sub4($c) => $body,
+            Running::Sub($c) => $body,
         }
     };
 }
@@ -266,6 +368,8 @@ pub enum SwapError {
     /// The model kind, channel count or sample period changes, and the controller is not
     /// Idle.
     NotIdle,
+    /// The set was not prepared successfully ([`BoardPrepared::is_ready`]).
+    NotPrepared,
 }
 
 /// The board's controller: the running configuration's [`Controller`] (see the module
@@ -277,17 +381,22 @@ pub struct BoardController {
 }
 
 impl BoardController {
-    /// An idle controller of the configuration `prepared`, its demand at the safe demand.
-    pub fn new(prepared: &BoardPrepared) -> Self {
-        Self {
+    /// An idle controller of the configuration `prepared`, its demand at the safe demand;
+    /// [`SwapError::NotPrepared`] if the set is not [`BoardPrepared::is_ready`].
+    pub fn new(prepared: &BoardPrepared) -> Result<Self, SwapError> {
+        if !prepared.ready {
+            return Err(SwapError::NotPrepared);
+        }
+        Ok(Self {
             params: prepared.params,
             running: running(&prepared.prepared),
-        }
+        })
     }
 
     /// Validates `params` for `dt` and builds an idle controller.
     pub fn with_params(params: &BoardParams, dt: f32) -> Result<Self, ParamError> {
-        params.prepare(dt).map(|p| Self::new(&p))
+        let prepared = params.prepare(dt)?;
+        Self::new(&prepared).map_err(|_| ParamError::OutOfRange(Field::ModelKind))
     }
 
     /// The running parameter set.
@@ -302,19 +411,18 @@ impl BoardController {
                 ModelKind::Tyre
             }
             Running::Aero(_) => ModelKind::Aero,
-            Running::Sub1(_) | Running::Sub2(_) | Running::Sub3(_) | Running::Sub4(_) => {
-                ModelKind::Substructure
-            }
+            Running::Sub(_) => ModelKind::Substructure,
         }
     }
 
     /// The running number of channels.
     pub fn channels(&self) -> usize {
         match self.running {
-            Running::Tyre1(_) | Running::Sub1(_) => 1,
-            Running::Tyre2(_) | Running::Aero(_) | Running::Sub2(_) => 2,
-            Running::Tyre3(_) | Running::Sub3(_) => 3,
-            Running::Tyre4(_) | Running::Sub4(_) => 4,
+            Running::Tyre1(_) => 1,
+            Running::Tyre2(_) | Running::Aero(_) => 2,
+            Running::Tyre3(_) => 3,
+            Running::Tyre4(_) => 4,
+            Running::Sub(_) => (self.params.channels as usize).min(BOARD_CHANNELS),
         }
     }
 
@@ -327,18 +435,19 @@ impl BoardController {
     /// configuration; another kind, channel count or sample period only while Idle,
     /// continuing the demand. On error nothing changes.
     pub fn swap(&mut self, prepared: &BoardPrepared) -> Result<(), SwapError> {
+        if !prepared.ready {
+            return Err(SwapError::NotPrepared);
+        }
         let same_dt = prepared_dt(&prepared.prepared).to_bits() == self.dt().to_bits();
         let same = same_dt
+            && prepared.params.channels == self.params.channels
             && match (&mut self.running, &prepared.prepared) {
                 (Running::Tyre1(c), Prepared::Tyre1(p)) => c.swap_params(p).is_ok(),
                 (Running::Tyre2(c), Prepared::Tyre2(p)) => c.swap_params(p).is_ok(),
                 (Running::Tyre3(c), Prepared::Tyre3(p)) => c.swap_params(p).is_ok(),
                 (Running::Tyre4(c), Prepared::Tyre4(p)) => c.swap_params(p).is_ok(),
                 (Running::Aero(c), Prepared::Aero(p)) => c.swap_params(p).is_ok(),
-                (Running::Sub1(c), Prepared::Sub1(p)) => c.swap_params(p).is_ok(),
-                (Running::Sub2(c), Prepared::Sub2(p)) => c.swap_params(p).is_ok(),
-                (Running::Sub3(c), Prepared::Sub3(p)) => c.swap_params(p).is_ok(),
-                (Running::Sub4(c), Prepared::Sub4(p)) => c.swap_params(p).is_ok(),
+                (Running::Sub(c), Prepared::Sub(p)) => c.swap_params(p).is_ok(),
                 _ => false,
             };
         if same {
@@ -393,21 +502,33 @@ impl BoardController {
 
     /// The last demand per board channel (zero beyond the running channels).
     pub fn demand(&self) -> [f32; BOARD_CHANNELS] {
-        each!(&self.running, c => fit(&c.demand(), 0.0))
+        let mut demand = each!(&self.running, c => fit(&c.demand(), 0.0));
+        demand
+            .iter_mut()
+            .skip(self.channels())
+            .for_each(|d| *d = 0.0);
+        demand
     }
 
     /// One control step on the first channels of `input`: the demand per board channel
     /// (zero beyond the running channels), always finite and inside the limits.
     pub fn step(&mut self, input: &ModelInput<BOARD_CHANNELS>) -> [f32; BOARD_CHANNELS] {
-        each!(&mut self.running, c => {
-            let narrow = ModelInput {
+        let used = self.channels();
+        let mut demand = each!(&mut self.running, c => {
+            let mut narrow = ModelInput {
                 position: fit(&input.position, 0.0),
                 force: fit(&input.force, 0.0),
                 road: fit(&input.road, 0.0),
                 speed: input.speed,
             };
+            // A substructure wider than its configuration: the unused channels read zero.
+            for signal in [&mut narrow.position, &mut narrow.force, &mut narrow.road] {
+                signal.iter_mut().skip(used).for_each(|v| *v = 0.0);
+            }
             fit(&c.step(&narrow), 0.0)
-        })
+        });
+        demand.iter_mut().skip(used).for_each(|d| *d = 0.0);
+        demand
     }
 }
 
@@ -419,10 +540,7 @@ fn running(p: &Prepared) -> Running {
         Prepared::Tyre3(p) => Running::Tyre3(Controller::new(*p)),
         Prepared::Tyre4(p) => Running::Tyre4(Controller::new(*p)),
         Prepared::Aero(p) => Running::Aero(Controller::new(*p)),
-        Prepared::Sub1(p) => Running::Sub1(Controller::new(*p)),
-        Prepared::Sub2(p) => Running::Sub2(Controller::new(*p)),
-        Prepared::Sub3(p) => Running::Sub3(Controller::new(*p)),
-        Prepared::Sub4(p) => Running::Sub4(Controller::new(*p)),
+        Prepared::Sub(p) => Running::Sub(Controller::new(*p)),
     }
 }
 
@@ -433,9 +551,6 @@ fn prepared_dt(p: &Prepared) -> f32 {
         Prepared::Tyre3(p) => p.dt(),
         Prepared::Tyre4(p) => p.dt(),
         Prepared::Aero(p) => p.dt(),
-        Prepared::Sub1(p) => p.dt(),
-        Prepared::Sub2(p) => p.dt(),
-        Prepared::Sub3(p) => p.dt(),
-        Prepared::Sub4(p) => p.dt(),
+        Prepared::Sub(p) => p.dt(),
     }
 }

@@ -133,6 +133,17 @@ pub trait Model<const CH: usize>: Sized + Clone {
     /// Validates `params` and derives the run-time coefficients for sample period `dt` (s).
     fn prepare(params: &Self::Params, dt: f32) -> Result<Self::Prepared, ParamError>;
 
+    /// As [`Model::prepare`], into `out` (for coefficients of kilobytes: no temporary of
+    /// them on the stack); on error `out` holds no valid coefficients.
+    fn prepare_into(
+        params: &Self::Params,
+        dt: f32,
+        out: &mut Self::Prepared,
+    ) -> Result<(), ParamError> {
+        *out = Self::prepare(params, dt)?;
+        Ok(())
+    }
+
     /// The model at rest.
     fn new() -> Self;
 
@@ -180,6 +191,44 @@ pub struct PreparedParams<M: Model<CH>, const CH: usize> {
 impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
     /// Validates the whole set for sample period `dt` (s) and derives the coefficients.
     pub fn new(params: &ControllerParams<M::Params, CH>, dt: f32) -> Result<Self, ParamError> {
+        Self::check(params, dt)?;
+        let model = M::prepare(&params.model, dt)?;
+        Ok(Self {
+            params: *params,
+            model,
+            dt,
+        })
+    }
+
+    /// As [`PreparedParams::new`], in place (no temporary of the model's coefficients);
+    /// on error `self` holds no valid set and must not be swapped in.
+    pub fn prepare_into(
+        &mut self,
+        params: &ControllerParams<M::Params, CH>,
+        dt: f32,
+    ) -> Result<(), ParamError> {
+        Self::check(params, dt)?;
+        M::prepare_into(&params.model, dt, &mut self.model)?;
+        self.params = *params;
+        self.dt = dt;
+        Ok(())
+    }
+
+    /// A set of `params` with the model's coefficients `model`, not validated: only as a
+    /// place to [`PreparedParams::prepare_into`].
+    pub(crate) const fn unprepared(
+        params: ControllerParams<M::Params, CH>,
+        model: M::Prepared,
+    ) -> Self {
+        Self {
+            params,
+            model,
+            dt: 0.0,
+        }
+    }
+
+    /// Validates everything but the model's parameters.
+    fn check(params: &ControllerParams<M::Params, CH>, dt: f32) -> Result<(), ParamError> {
         if CH == 0 || CH > MAX_CHANNELS {
             return Err(ParamError::OutOfRange(Field::SafeDemand));
         }
@@ -196,12 +245,7 @@ impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
             Range::new(limits.min, limits.max).check(Field::SafeDemand, *safe)?;
             SAFE_RAMP_RATE.check(Field::SafeRampRate, *ramp)?;
         }
-        let model = M::prepare(&params.model, dt)?;
-        Ok(Self {
-            params: *params,
-            model,
-            dt,
-        })
+        Ok(())
     }
 
     /// The parameter set.

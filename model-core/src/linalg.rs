@@ -20,11 +20,37 @@ impl<const N: usize> Lu<N> {
     /// Factorises the leading `n × n` block of `a`. Fails for `n > N`, non-finite entries, or
     /// a pivot below `1e-300` or `1e-13` times the largest entry (numerically singular).
     pub fn factor(a: &[[f64; N]; N], n: usize) -> Result<Self, Singular> {
+        let mut lu = Self {
+            lu: *a,
+            perm: [0; N],
+            n,
+        };
+        lu.factorise(n)?;
+        Ok(lu)
+    }
+
+    /// An all-zero matrix to fill ([`Lu::matrix_mut`]) and [`Lu::factorise`] in place (the
+    /// matrices are kilobytes: no copy of them on the stack).
+    pub const ZERO: Self = Self {
+        lu: [[0.0; N]; N],
+        perm: [0; N],
+        n: 0,
+    };
+
+    /// The matrix to factorise (before [`Lu::factorise`]).
+    pub fn matrix_mut(&mut self) -> &mut [[f64; N]; N] {
+        &mut self.lu
+    }
+
+    /// Factorises the leading `n × n` block of the matrix it holds, in place (as
+    /// [`Lu::factor`]).
+    pub fn factorise(&mut self, n: usize) -> Result<(), Singular> {
         if n > N {
             return Err(Singular);
         }
-        let mut lu = *a;
-        let mut perm = [0usize; N];
+        self.n = n;
+        let lu = &mut self.lu;
+        let perm = &mut self.perm;
         for (i, p) in perm.iter_mut().enumerate() {
             *p = i;
         }
@@ -58,7 +84,7 @@ impl<const N: usize> Lu<N> {
                 }
             }
         }
-        Ok(Self { lu, perm, n })
+        Ok(())
     }
 
     /// Solves `A x = b` for the leading `n` entries of `b` (in place).

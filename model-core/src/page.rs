@@ -849,10 +849,20 @@ pub fn from_words(words: &[f32; WORDS]) -> Result<BoardParams, WordError> {
         0.0,
         1.0,
     );
+    from_words_into(|k| words.get(k).copied(), &mut p)?;
+    Ok(p)
+}
+
+/// As [`from_words`], reading word `k` as `word(k)` (`None` beyond the page) into `out`,
+/// in place; on error `out` is partly written.
+pub fn from_words_into(
+    word: impl Fn(usize) -> Option<f32>,
+    out: &mut BoardParams,
+) -> Result<(), WordError> {
     let mut k = 0;
     let mut error = None;
-    p.visit(&mut |info, w| {
-        let v = words.get(k).copied().unwrap_or(f32::NAN);
+    out.visit(&mut |info, w| {
+        let v = word(k).unwrap_or(f32::NAN);
         if error.is_none() {
             match check(info, k, v) {
                 Err(e) => error = Some(e),
@@ -866,7 +876,7 @@ pub fn from_words(words: &[f32; WORDS]) -> Result<BoardParams, WordError> {
     });
     match error {
         Some(e) => Err(e),
-        None => Ok(p),
+        None => Ok(()),
     }
 }
 

@@ -147,12 +147,31 @@ pub enum Causality {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct InterfaceParams {
-    /// Index of the interface degree of freedom, `0..dof`.
+    /// Index of the interface degree of freedom, `0..dof`, or [`UNCONNECTED`]: the channel
+    /// does not couple (its measurement is ignored, its demand is zero).
     pub dof: u32,
     /// Interface stiffness `k_i` (N/m); used when `B_i` is numerical (cases 3 and 4).
     pub stiffness: f32,
     /// Interface damping `c_i` (N s/m); used when `B_i` is numerical (cases 3 and 4).
     pub damping: f32,
+}
+
+/// [`InterfaceParams::dof`] of a channel that does not couple to the substructure (a board
+/// configuration with fewer channels than the model's width).
+pub const UNCONNECTED: u32 = u32::MAX;
+
+impl InterfaceParams {
+    /// A channel that does not couple.
+    pub const NONE: Self = Self {
+        dof: UNCONNECTED,
+        stiffness: 0.0,
+        damping: 0.0,
+    };
+
+    /// `true` when the channel couples to a DOF.
+    pub const fn connected(&self) -> bool {
+        self.dof != UNCONNECTED
+    }
 }
 
 /// A nonlinear element of the substructure (see the module docs' *Nonlinear elements*): a
@@ -234,7 +253,7 @@ impl<const CH: usize> SubstructureParams<CH> {
     }
 
     /// The same substructure serving the first `C2` channels (channels beyond `CH` get no
-    /// couplings, interface DOF 0 and a zero impedance).
+    /// couplings and are [`UNCONNECTED`]).
     pub fn first_channels<const C2: usize>(&self) -> SubstructureParams<C2> {
         let mut out = SubstructureParams::<C2>::zeroed(self.dof, Causality::Impedance);
         out.causality = self.causality;
@@ -250,12 +269,7 @@ impl<const CH: usize> SubstructureParams<CH> {
         for (to, from) in out.ground_damping.iter_mut().zip(&self.ground_damping) {
             *to = fit(from, 0.0);
         }
-        let unconnected = InterfaceParams {
-            dof: 0,
-            stiffness: 0.0,
-            damping: 0.0,
-        };
-        out.interface = fit(&self.interface, unconnected);
+        out.interface = fit(&self.interface, InterfaceParams::NONE);
         for (to, from) in out.elements.iter_mut().zip(&self.elements) {
             to.dof_coefficients = from.dof_coefficients;
             to.law = from.law;
@@ -313,6 +327,9 @@ impl<const CH: usize> SubstructureParams<CH> {
         for i in &self.interface {
             SUBSTRUCTURE_STIFFNESS.check(Field::SubstructureInterface, i.stiffness)?;
             SUBSTRUCTURE_DAMPING.check(Field::SubstructureInterface, i.damping)?;
+            if !i.connected() {
+                continue;
+            }
             let slot = interface_dofs
                 .get_mut(i.dof as usize)
                 .filter(|_| (i.dof as usize) < n)
@@ -330,6 +347,10 @@ impl<const CH: usize> SubstructureParams<CH> {
                 // B_i must be invertible: a rigid (zero) or active (negative) coupling is not.
                 return Err(ParamError::Inconsistent(Field::SubstructureInterface));
             }
+        }
+        if !self.interface.iter().any(InterfaceParams::connected) {
+            // Coupled to no actuator: nothing to measure, nothing to demand.
+            return Err(ParamError::Inconsistent(Field::SubstructureInterface));
         }
         crate::velocity::VELOCITY_CUTOFF.check(Field::VelocityCutoff, self.velocity_cutoff_hz)?;
         if self.element_count as usize > MAX_ELEMENTS {
@@ -463,6 +484,47 @@ pub struct SubstructurePrepared<const CH: usize> {
     pub d_er: [[f32; MAX_ELEMENTS]; ELEMENT_OUTPUTS],
 }
 
+impl<const CH: usize> SubstructurePrepared<CH> {
+    /// All coefficients zero (no states): a place to prepare into.
+    pub const ZERO: Self = Self {
+        states: 0,
+        causality: Causality::Impedance,
+        delta: [[0.0; MAX_STATES]; MAX_STATES],
+        gamma: [[[0.0; CH]; MAX_STATES]; INPUT_KINDS],
+        c: [[0.0; MAX_STATES]; CH],
+        d: [[[0.0; CH]; CH]; INPUT_KINDS],
+        velocity: VelocityFilterCoefficients {
+            inv_dt: 0.0,
+            gain: 1.0,
+        },
+        elements: 0,
+        laws: [ElementLaw::NONE; MAX_ELEMENTS],
+        linear: [[0.0; 2]; MAX_ELEMENTS],
+        gamma_r: [[0.0; MAX_ELEMENTS]; MAX_STATES],
+        d_r: [[0.0; MAX_ELEMENTS]; CH],
+        c_e: [[0.0; MAX_STATES]; ELEMENT_OUTPUTS],
+        d_e: [[[0.0; CH]; ELEMENT_OUTPUTS]; INPUT_KINDS],
+        d_er: [[0.0; MAX_ELEMENTS]; ELEMENT_OUTPUTS],
+    };
+
+    /// Back to [`Self::ZERO`], in place (no kilobyte temporary).
+    fn clear(&mut self) {
+        self.states = 0;
+        self.elements = 0;
+        self.delta.iter_mut().for_each(|r| r.fill(0.0));
+        self.gamma.iter_mut().flatten().for_each(|r| r.fill(0.0));
+        self.c.iter_mut().for_each(|r| r.fill(0.0));
+        self.d.iter_mut().flatten().for_each(|r| r.fill(0.0));
+        self.laws.fill(ElementLaw::NONE);
+        self.linear.fill([0.0; 2]);
+        self.gamma_r.iter_mut().for_each(|r| r.fill(0.0));
+        self.d_r.iter_mut().for_each(|r| r.fill(0.0));
+        self.c_e.iter_mut().for_each(|r| r.fill(0.0));
+        self.d_e.iter_mut().flatten().for_each(|r| r.fill(0.0));
+        self.d_er.iter_mut().for_each(|r| r.fill(0.0));
+    }
+}
+
 /// Continuous-time model `ẋ = A x + Σ B_k u_k + B_r r`, `y = C x + Σ D_k u_k + D_r r` in
 /// `f64`, with the elements' remainders `r` as inputs and their motion
 /// `m = C_e x + Σ D_e,k u_k` as further outputs.
@@ -516,7 +578,8 @@ struct Network<const CH: usize> {
     k: [[f64; MAX_DOF]; MAX_DOF],
     gk: [[f64; CH]; MAX_DOF],
     gc: [[f64; CH]; MAX_DOF],
-    iface: [usize; CH],
+    /// Interface DOF per channel, `None` for an unconnected channel.
+    iface: [Option<usize>; CH],
 }
 
 #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < n <= MAX_DOF
@@ -530,7 +593,7 @@ fn network<const CH: usize>(p: &SubstructureParams<CH>) -> Network<CH> {
         k: [[0.0; MAX_DOF]; MAX_DOF],
         gk: [[0.0; CH]; MAX_DOF],
         gc: [[0.0; CH]; MAX_DOF],
-        iface: [0; CH],
+        iface: [None; CH],
     };
     for i in 0..n {
         for j in 0..n {
@@ -564,7 +627,10 @@ fn network<const CH: usize>(p: &SubstructureParams<CH>) -> Network<CH> {
         }
     }
     for ch in 0..CH {
-        net.iface[ch] = (p.interface[ch].dof as usize).min(n.saturating_sub(1));
+        let i = &p.interface[ch];
+        net.iface[ch] = i
+            .connected()
+            .then(|| (i.dof as usize).min(n.saturating_sub(1)));
     }
     net
 }
@@ -691,7 +757,7 @@ fn element_motion<const CH: usize>(
                 }
                 None => {
                     for ch in 0..CH {
-                        if net.iface[ch] == j {
+                        if net.iface[ch] == Some(j) {
                             out.de[SIGNAL][x][ch] += a;
                             out.de[SIGNAL_RATE][v][ch] += a;
                             break;
@@ -710,6 +776,7 @@ fn element_motion<const CH: usize>(
 
 /// Continuous-time model for the configured causality.
 #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices bounded by n, CH, MAX_*
+#[inline(never)]
 fn continuous<const CH: usize>(
     p: &SubstructureParams<CH>,
     causality: Causality,
@@ -734,20 +801,23 @@ fn continuous<const CH: usize>(
             let mut extra = 0;
             if causality == Causality::AdmittanceThroughImpedance {
                 for ch in 0..CH {
-                    if p.interface[ch].damping > 0.0 {
+                    if p.interface[ch].damping > 0.0 && net.iface[ch].is_some() {
                         compliance[ch] = Some(2 * n + extra);
                         extra += 1;
                     }
                 }
             }
             out.reset(2 * n + extra);
-            for ch in 0..CH {
-                force[SIGNAL][net.iface[ch]][ch] -= 1.0;
+            for (ch, d) in net.iface.iter().enumerate() {
+                if let Some(d) = *d {
+                    force[SIGNAL][d][ch] -= 1.0;
+                }
             }
             masses(&net, elements, dt, all.get(..n).unwrap_or(&[]), &force, out)?;
             element_motion(&net, elements, |j| Some((j, n + j)), out);
             for ch in 0..CH {
-                out.c[ch][net.iface[ch]] = 1.0;
+                let Some(d) = net.iface[ch] else { continue };
+                out.c[ch][d] = 1.0;
                 if causality == Causality::AdmittanceThroughImpedance {
                     let (ki, ci) = (
                         f64::from(p.interface[ch].stiffness),
@@ -770,7 +840,7 @@ fn continuous<const CH: usize>(
             let mut net = net;
             out.reset(2 * n);
             for ch in 0..CH {
-                let d = net.iface[ch];
+                let Some(d) = net.iface[ch] else { continue };
                 let (ki, ci) = (
                     f64::from(p.interface[ch].stiffness),
                     f64::from(p.interface[ch].damping),
@@ -790,8 +860,8 @@ fn continuous<const CH: usize>(
         }
         Causality::PrescribedMotion => {
             let mut is_iface = [false; MAX_DOF];
-            for ch in 0..CH {
-                is_iface[net.iface[ch]] = true;
+            for d in net.iface.iter().flatten() {
+                is_iface[*d] = true;
             }
             let mut free = [0usize; MAX_DOF];
             let mut nf = 0;
@@ -804,7 +874,7 @@ fn continuous<const CH: usize>(
             let free = free.get(..nf).unwrap_or(&[]);
             // Imposed interface motion acts on the free DOFs as a force.
             for ch in 0..CH {
-                let d = net.iface[ch];
+                let Some(d) = net.iface[ch] else { continue };
                 for &j in free {
                     force[SIGNAL][j][ch] -= net.k[j][d];
                     force[SIGNAL_RATE][j][ch] -= net.c[j][d];
@@ -821,7 +891,7 @@ fn continuous<const CH: usize>(
             );
             // F_i = F_n,d - (M ẍ + C ẋ + K x)_d, with ẍ_F from the free DOFs' own equations.
             for ch in 0..CH {
-                let d = net.iface[ch];
+                let Some(d) = net.iface[ch] else { continue };
                 for (a, &j) in free.iter().enumerate() {
                     out.c[ch][a] -= net.k[d][j];
                     out.c[ch][nf + a] -= net.c[d][j];
@@ -843,10 +913,11 @@ fn continuous<const CH: usize>(
                     out.dr[ch][e] -= f64::from(element.dof_coefficients[d]);
                 }
                 for i in 0..CH {
-                    let di = net.iface[i];
-                    out.d[SIGNAL][ch][i] -= net.k[d][di];
-                    out.d[SIGNAL_RATE][ch][i] -= net.c[d][di];
-                    out.d[SIGNAL_ACCELERATION][ch][i] -= net.m[d][di];
+                    if let Some(di) = net.iface[i] {
+                        out.d[SIGNAL][ch][i] -= net.k[d][di];
+                        out.d[SIGNAL_RATE][ch][i] -= net.c[d][di];
+                        out.d[SIGNAL_ACCELERATION][ch][i] -= net.m[d][di];
+                    }
                     out.d[ROAD][ch][i] += net.gk[d][i];
                     out.d[ROAD_RATE][ch][i] += net.gc[d][i];
                 }
@@ -856,42 +927,34 @@ fn continuous<const CH: usize>(
     }
 }
 
-/// Tustin discretisation of the continuous model (see the module docs).
+/// Tustin discretisation of the continuous model (see the module docs). Not inlined: its
+/// `f64` workspace and the continuous model's stay in separate frames, not summed in one.
 #[allow(clippy::indexing_slicing, clippy::needless_range_loop)] // indices < ns <= MAX_STATES
+#[inline(never)]
 fn tustin<const CH: usize>(
     m: &Continuous<CH>,
     dt: f64,
     causality: Causality,
     velocity: VelocityFilterCoefficients,
     elements: &[SubstructureElement<CH>],
-) -> Result<SubstructurePrepared<CH>, ParamError> {
+    out: &mut SubstructurePrepared<CH>,
+) -> Result<(), ParamError> {
     let ns = m.ns;
-    let mut e = [[0.0f64; MAX_STATES]; MAX_STATES];
+    let mut lu = Lu::<MAX_STATES>::ZERO;
+    let e = lu.matrix_mut();
     for i in 0..ns {
         for j in 0..ns {
             e[i][j] = -0.5 * dt * m.a[i][j];
         }
         e[i][i] += 1.0;
     }
-    let lu = Lu::<MAX_STATES>::factor(&e, ns)
+    lu.factorise(ns)
         .map_err(|_| ParamError::Unstable(Field::SubstructureMass))?;
-    let mut out = SubstructurePrepared::<CH> {
-        states: ns,
-        causality,
-        delta: [[0.0; MAX_STATES]; MAX_STATES],
-        gamma: [[[0.0; CH]; MAX_STATES]; INPUT_KINDS],
-        c: [[0.0; MAX_STATES]; CH],
-        d: [[[0.0; CH]; CH]; INPUT_KINDS],
-        velocity,
-        elements: elements.len().min(MAX_ELEMENTS),
-        laws: [ElementLaw::NONE; MAX_ELEMENTS],
-        linear: [[0.0; 2]; MAX_ELEMENTS],
-        gamma_r: [[0.0; MAX_ELEMENTS]; MAX_STATES],
-        d_r: [[0.0; MAX_ELEMENTS]; CH],
-        c_e: [[0.0; MAX_STATES]; ELEMENT_OUTPUTS],
-        d_e: [[[0.0; CH]; ELEMENT_OUTPUTS]; INPUT_KINDS],
-        d_er: [[0.0; MAX_ELEMENTS]; ELEMENT_OUTPUTS],
-    };
+    out.clear();
+    out.states = ns;
+    out.causality = causality;
+    out.velocity = velocity;
+    out.elements = elements.len().min(MAX_ELEMENTS);
     for ((law, linear), e) in out.laws.iter_mut().zip(&mut out.linear).zip(elements) {
         *law = e.law;
         let (k, c) = linear_part(&e.law);
@@ -1001,7 +1064,7 @@ fn tustin<const CH: usize>(
         && out.d_e.iter().flatten().flatten().all(|v| v.is_finite())
         && out.d_er.iter().flatten().all(|v| v.is_finite());
     if finite {
-        Ok(out)
+        Ok(())
     } else {
         Err(ParamError::NotFinite(Field::SubstructureStiffness))
     }
@@ -1064,6 +1127,16 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
     type Prepared = SubstructurePrepared<CH>;
 
     fn prepare(params: &Self::Params, dt: f32) -> Result<Self::Prepared, ParamError> {
+        let mut out = SubstructurePrepared::ZERO;
+        Self::prepare_into(params, dt, &mut out)?;
+        Ok(out)
+    }
+
+    fn prepare_into(
+        params: &Self::Params,
+        dt: f32,
+        out: &mut Self::Prepared,
+    ) -> Result<(), ParamError> {
         params.validate()?;
         let velocity = VelocityFilterCoefficients::new(params.velocity_cutoff_hz, dt)?;
         let causality = params
@@ -1077,6 +1150,7 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
             causality,
             velocity,
             params.used_elements(),
+            out,
         )
     }
 

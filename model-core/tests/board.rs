@@ -503,3 +503,68 @@ fn the_drawn_sets_are_mostly_accepted() {
         );
     }
 }
+
+/// The substructure of `p` on its first `C` channels as a controller of that width: what
+/// the host runs for a `C`-channel set-up.
+fn narrow<const C: usize>(p: &BoardParams) -> Controller<model_core::SubstructureModel<C>, C> {
+    use model_core::board::fit;
+    let params = ControllerParams {
+        model: p.substructure.first_channels::<C>(),
+        filter: fit(&p.filter, CascadeCoefficients::IDENTITY),
+        limits: fit(&p.limits, limits(-1.0, 1.0)),
+        safe_demand: fit(&p.safe_demand, 0.0),
+        safe_ramp_rate: fit(&p.safe_ramp_rate, 1.0),
+    };
+    Controller::with_params(&params, DT).unwrap()
+}
+
+/// The board runs the substructure four channels wide with the unused ones unconnected
+/// (one copy of its code in the image): on 1 to 3 channels, in every causality, its
+/// demands are bit for bit those of a controller of the configuration's own width, and
+/// whatever the page holds for the unused channels (here garbage interfaces, road springs
+/// and limits) changes nothing.
+#[test]
+fn a_narrow_substructure_runs_as_a_controller_of_its_width() {
+    fn check<const C: usize>(causality: Causality) {
+        let mut p = substructure(C as u32, causality);
+        let mut board = BoardController::with_params(&p, DT).unwrap();
+        for ch in C..BOARD_CHANNELS {
+            p.substructure.interface[ch].dof = 17;
+            p.substructure.ground_stiffness[0][ch] = 1.0e6;
+            p.substructure.elements[0].road_coefficients[ch] = 5.0;
+            p.limits[ch] = limits(3.0, 2.0);
+        }
+        let garbage = BoardController::with_params(&p, DT).unwrap();
+        assert_eq!(garbage.params(), &p);
+        let mut with_garbage = garbage;
+        let mut host = narrow::<C>(&p);
+        assert!(board.start() && with_garbage.start() && host.start());
+        for k in 0..2000 {
+            let i = input(k);
+            let narrow_input = ModelInput {
+                position: model_core::board::fit(&i.position, 0.0),
+                force: model_core::board::fit(&i.force, 0.0),
+                road: model_core::board::fit(&i.road, 0.0),
+                speed: i.speed,
+            };
+            let want = host.step(&narrow_input);
+            let d = board.step(&i);
+            assert_eq!(with_garbage.step(&i), d, "{causality:?} x{C} step {k}");
+            for (ch, w) in want.iter().enumerate() {
+                assert_eq!(d[ch].to_bits(), w.to_bits(), "{causality:?} x{C} step {k}");
+            }
+            assert!(d.iter().skip(C).all(|v| *v == 0.0));
+        }
+        assert_eq!(board.mode(), Mode::Running);
+    }
+    for causality in [
+        Causality::Admittance,
+        Causality::Impedance,
+        Causality::AdmittanceThroughImpedance,
+        Causality::PrescribedMotion,
+    ] {
+        check::<1>(causality);
+        check::<2>(causality);
+        check::<3>(causality);
+    }
+}

@@ -300,19 +300,25 @@ impl Application {
         self.calibration_source
     }
 
-    /// Boot: runs the stored page `words` (already checked by [`crate::store::Store::load`])
-    /// and records `source`; a page that does not install leaves the defaults running and
-    /// records [`crate::calibration::Source::Refused`]. Returns the source recorded.
+    /// Boot: runs the stored page `words` (already checked by [`crate::store::Store::load`],
+    /// prepared in `candidate`) and records `source`; a page that does not install leaves
+    /// the defaults running and records [`crate::calibration::Source::Refused`]. Returns the
+    /// source recorded.
     pub fn boot_with(
         &mut self,
         source: crate::calibration::Source,
         words: Option<&[u32; crate::calibration::SLOTS]>,
+        candidate: &mut crate::calibration::Candidate,
     ) -> crate::calibration::Source {
         self.calibration_source = match words {
-            Some(words) => match crate::calibration::decode_page(words) {
-                Ok((prepared, settings)) if self.install(&prepared, settings) == code::OK => source,
-                _ => crate::calibration::Source::Refused,
-            },
+            Some(words) => {
+                match crate::calibration::decode_page_into(words, &mut candidate.prepared) {
+                    Ok(settings) if self.install(&candidate.prepared, settings) == code::OK => {
+                        source
+                    }
+                    _ => crate::calibration::Source::Refused,
+                }
+            }
             None => source,
         };
         self.calibration_source
@@ -606,6 +612,8 @@ impl Application {
             }
             // Another model, channel count or sample rate while not Idle.
             Err(model_core::board::SwapError::NotIdle) => code::WRONG_MODE,
+            // A set that did not validate (callers install only accepted ones).
+            Err(model_core::board::SwapError::NotPrepared) => code::INCONSISTENT,
         }
     }
 }
@@ -771,9 +779,9 @@ mod tests {
 
     /// The application behind the calibration authority, with the calibration unlocked
     /// (Command frames as an XCP-unlocked session sends them).
-    fn commanded(a: Application) -> crate::xcp::Target<Application> {
+    fn commanded(a: Application) -> crate::xcp::Target<'static, Application> {
         a.mirror_to_working_page();
-        crate::xcp::Target::new(a)
+        crate::xcp::Target::new(a, crate::calibration::host_candidate())
     }
 
     #[test]
@@ -833,7 +841,9 @@ mod tests {
     fn settings_and_parameters() {
         let _turn = crate::calibration::test_lock();
         let mut t = commanded(app());
-        let send = |t: &mut crate::xcp::Target<Application>, c: Command| t.command_frame(&c, true);
+        let send = |t: &mut crate::xcp::Target<'static, Application>, c: Command| {
+            t.command_frame(&c, true)
+        };
         assert_eq!(
             send(&mut t, Command::SetWatchdog { seconds: 0.002 }),
             code::OK

@@ -273,13 +273,23 @@ pub const BUS_BIT_PER_S: f64 = 1.0e6;
 
 /// The parameters and settings the page's `words` hold, validated slot by slot, as a whole
 /// set at the page's sample rate, and against the bus budget, or the CommandAck code of
-/// the first refusal.
+/// the first refusal. Host side: returns kilobytes by value (the board decodes in place,
+/// [`decode_page_into`]).
+#[cfg(not(target_os = "none"))]
 pub fn decode_page(words: &[u32; SLOTS]) -> Result<(Prepared, Settings), u8> {
-    let mut board = [0.0f32; WORDS];
-    for (b, w) in board.iter_mut().zip(words.iter().skip(SETTINGS_SLOTS)) {
-        *b = f32::from_bits(*w);
-    }
-    let p = page::from_words(&board).map_err(word_code)?;
+    let mut prepared = Prepared::BLANK;
+    let settings = decode_page_into(words, &mut prepared)?;
+    Ok((prepared, settings))
+}
+
+/// As [`decode_page`], preparing the set in place in `prepared` (kilobytes: no copy of it
+/// on the stack); returns the settings. On a refusal `prepared` is not ready.
+pub fn decode_page_into(words: &[u32; SLOTS], prepared: &mut Prepared) -> Result<Settings, u8> {
+    page::from_words_into(
+        |k| words.get(SETTINGS_SLOTS + k).map(|w| f32::from_bits(*w)),
+        prepared.params_mut(),
+    )
+    .map_err(word_code)?;
     let mut settings = DEFAULT_SETTINGS;
     for slot in 0..SETTINGS_SLOTS {
         let value = f32::from_bits(words.get(slot).copied().ok_or(code::OUT_OF_RANGE)?);
@@ -290,13 +300,17 @@ pub fn decode_page(words: &[u32; SLOTS]) -> Result<(Prepared, Settings), u8> {
             _ => settings.sample_rate_hz = params::integer_in(value, SAMPLE_RATE_RANGE)?,
         }
     }
-    let prepared = p
+    prepared
         .prepare(settings.dt())
         .map_err(|e| params::error_code(&e))?;
-    if schedule(&p, &settings).check(BUS_BIT_PER_S).is_err() {
+    if schedule(prepared.params(), &settings)
+        .check(BUS_BIT_PER_S)
+        .is_err()
+    {
+        prepared.params_mut();
         return Err(code::BUS_BUDGET);
     }
-    Ok((prepared, settings))
+    Ok(settings)
 }
 
 /// Stores `words` as the working page (a validated change; see `xcp::Target`).
@@ -346,10 +360,11 @@ pub(crate) fn test_lock() -> std::sync::MutexGuard<'static, ()> {
     guard
 }
 
-/// A validated change of the working page: the page's new words, and the prepared
-/// controller parameters and settings they hold (to install between two steps).
-pub struct Accepted {
-    /// The whole controller parameter set, validated.
+/// A change of the working page being validated: the page's new words, and the controller
+/// parameters and settings they hold, prepared in place (to install between two steps).
+/// Kilobytes: one lives in the configuration tasks' shared resource, never on a stack.
+pub struct Candidate {
+    /// The whole controller parameter set, validated when ready.
     pub prepared: Prepared,
     /// The settings.
     pub settings: Settings,
@@ -357,22 +372,45 @@ pub struct Accepted {
     pub words: [u32; SLOTS],
 }
 
+impl Candidate {
+    /// Empty (not ready).
+    pub const NEW: Self = Self {
+        prepared: Prepared::BLANK,
+        settings: DEFAULT_SETTINGS,
+        words: [0; SLOTS],
+    };
+}
+
+/// Host side (tests, host tools): a candidate of its own, for the life of the process.
+#[cfg(not(target_os = "none"))]
+pub fn host_candidate() -> &'static mut Candidate {
+    extern crate std;
+    std::boxed::Box::leak(std::boxed::Box::new(Candidate::NEW))
+}
+
 /// Checks one slot's value against its item: the CommandAck code of the reason if refused.
 pub fn check_slot(slot: usize, value: f32) -> Result<(), u8> {
     let item = item(slot).ok_or(code::UNKNOWN_INDEX)?;
-    page::check(&item, value).map_err(|e| word_code(e(slot)))
+    page::check(&item, slot, value).map_err(word_code)
 }
 
 /// Validates writing `data` at byte `offset` of the page `words` (see the module
-/// documentation): the page's new words and what they hold, or the CommandAck code of the
-/// refusal (the first refused slot's reason, then the whole set's). Pure: changes nothing
-/// (the caller installs and stores it).
-pub fn validate_write(words: &[u32; SLOTS], offset: usize, data: &[u8]) -> Result<Accepted, u8> {
+/// documentation) into `out`: the page's new words and what they hold, or the CommandAck
+/// code of the refusal (the first refused slot's reason, then the whole set's; `out` then
+/// not ready). Changes nothing else (the caller installs and stores it).
+pub fn validate_write(
+    words: &[u32; SLOTS],
+    offset: usize,
+    data: &[u8],
+    out: &mut Candidate,
+) -> Result<(), u8> {
+    out.prepared.params_mut();
     let end = offset.checked_add(data.len()).ok_or(code::OUT_OF_RANGE)?;
     if end > PAGE_BYTES || data.is_empty() {
         return Err(code::OUT_OF_RANGE);
     }
-    let mut words = *words;
+    out.words = *words;
+    let words = &mut out.words;
     for (k, &b) in data.iter().enumerate() {
         let at = offset + k;
         let w = words.get_mut(at / 4).ok_or(code::OUT_OF_RANGE)?;
@@ -389,12 +427,8 @@ pub fn validate_write(words: &[u32; SLOTS], offset: usize, data: &[u8]) -> Resul
             f32::from_bits(words.get(slot).copied().ok_or(code::OUT_OF_RANGE)?),
         )?;
     }
-    let (prepared, settings) = decode_page(&words)?;
-    Ok(Accepted {
-        prepared,
-        settings,
-        words,
-    })
+    out.settings = decode_page_into(&out.words, &mut out.prepared)?;
+    Ok(())
 }
 
 /// One measurement: what the A2L file says of it.
@@ -656,9 +690,20 @@ pub fn measurement_address() -> u32 {
 #[cfg(test)]
 mod tests {
     extern crate std;
-
     use super::*;
     use std::string::ToString;
+
+    /// [`validate_write`] into a fresh candidate.
+    fn validate(
+        words: &[u32; SLOTS],
+        offset: usize,
+        data: &[u8],
+    ) -> Result<std::boxed::Box<Candidate>, u8> {
+        let mut c = std::boxed::Box::new(Candidate::NEW);
+        validate_write(words, offset, data, &mut c)?;
+        assert!(c.prepared.is_ready());
+        Ok(c)
+    }
 
     fn lock() -> std::sync::MutexGuard<'static, ()> {
         test_lock()
@@ -717,7 +762,7 @@ mod tests {
         init_pages();
         let before = working_words();
         let damping = slot("tyre_damping_0");
-        let a = validate_write(&before, 4 * damping, &bytes(800.0)).expect("accepted");
+        let a = validate(&before, 4 * damping, &bytes(800.0)).expect("accepted");
         assert_eq!(a.prepared.params().tyre.tyre[0].damping, 800.0);
         assert_eq!(f32::from_bits(a.words[damping]), 800.0);
         assert_eq!(working_words(), before, "validation stores nothing");
@@ -727,7 +772,7 @@ mod tests {
         assert_eq!(out, bytes(800.0));
         read(Page::Reference, 4 * damping, &mut out);
         assert_eq!(out, bytes(500.0));
-        let a = validate_write(&before, 4 * SLOT_STATUS_PERIOD, &bytes(20.0)).expect("accepted");
+        let a = validate(&before, 4 * SLOT_STATUS_PERIOD, &bytes(20.0)).expect("accepted");
         assert_eq!(a.prepared.params(), &default_params());
         assert_eq!(a.settings.status_period, 20);
         init_pages();
@@ -753,7 +798,7 @@ mod tests {
         ];
         let mut w = words;
         for (name, value, want) in cases {
-            let got = match validate_write(&w, 4 * slot(name), &bytes(value)) {
+            let got = match validate(&w, 4 * slot(name), &bytes(value)) {
                 Ok(a) => {
                     w = a.words;
                     code::OK
@@ -767,12 +812,12 @@ mod tests {
         block[0..4].copy_from_slice(&bytes(1.0)); // sections = 1
         block[4..8].copy_from_slice(&bytes(1.0)); // beta0
         assert_eq!(
-            validate_write(&words, 4 * slot("filter_sections_0"), &block).err(),
+            validate(&words, 4 * slot("filter_sections_0"), &block).err(),
             Some(code::UNSTABLE)
         );
-        assert!(validate_write(&words, PAGE_BYTES - 2, &[0; 4]).is_err());
-        assert!(validate_write(&words, 0, &[]).is_err());
-        assert!(validate_write(&words, usize::MAX, &[0; 2]).is_err());
+        assert!(validate(&words, PAGE_BYTES - 2, &[0; 4]).is_err());
+        assert!(validate(&words, 0, &[]).is_err());
+        assert!(validate(&words, usize::MAX, &[0; 2]).is_err());
     }
 
     /// The configuration (sample rate, model kind, channels: slots 2–4, one block) must
@@ -786,7 +831,7 @@ mod tests {
             block[0..4].copy_from_slice(&bytes(rate));
             block[4..8].copy_from_slice(&bytes(kind as u32 as f32));
             block[8..12].copy_from_slice(&bytes(channels));
-            validate_write(&words, 4 * SLOT_SAMPLE_RATE, &block).map(|a| a.settings.sample_rate_hz)
+            validate(&words, 4 * SLOT_SAMPLE_RATE, &block).map(|a| a.settings.sample_rate_hz)
         };
         assert_eq!(
             config(2000.0, ModelKind::Tyre, 4.0).err(),
@@ -811,7 +856,7 @@ mod tests {
         for (k, v) in vals.iter().enumerate() {
             block[4 * k..4 * k + 4].copy_from_slice(&bytes(*v));
         }
-        let a = validate_write(&defaults(), 4 * slot("filter_sections_0"), &block)
+        let a = validate(&defaults(), 4 * slot("filter_sections_0"), &block)
             .expect("stable filter accepted");
         let f = a.prepared.params().filter[0];
         assert_eq!(f.sections, 1);

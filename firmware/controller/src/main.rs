@@ -75,6 +75,9 @@ mod app {
         xcp: Option<Slave>,
         /// The transmit half of the QEMU build's XCP port (USART2); nothing on the board.
         aux_tx: port::AuxTx,
+        /// Where the configuration tasks (XCP and Command frames, one priority: never both
+        /// at once) validate and prepare a change: kilobytes, in a static, not on a stack.
+        candidate: &'static mut calibration::Candidate,
     }
 
     #[local]
@@ -132,8 +135,9 @@ mod app {
         tick_info: port::TickInfo,
     }
 
-    #[init]
+    #[init(local = [candidate: calibration::Candidate = calibration::Candidate::NEW])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        let candidate = cx.local.candidate;
         // The control-path clock: SysTick on the board, TIM5 in QEMU (`clock` module).
         #[cfg(not(feature = "qemu"))]
         let clock = clock::Clock::start(cx.core.SYST);
@@ -154,7 +158,7 @@ mod app {
             crate::fatal::stop(format_args!("calibration store range refused"));
         };
         // The flash answers at once (board: blocking; QEMU: RAM), so the boot completes here.
-        let source = store::complete(store::boot(&mut app, &mut store));
+        let source = store::complete(store::boot(&mut app, &mut store, candidate));
         crate::log!("calibration at boot: {}", source.map_or(255, |s| s as u8));
         let _ = source; // logged on the board only
         let (sender, receiver) = make_channel!(Request, QUEUE);
@@ -185,6 +189,7 @@ mod app {
                 tx: hw.tx,
                 xcp: slave,
                 aux_tx: hw.aux_tx,
+                candidate,
             },
             Local {
                 tick: hw.tick,
@@ -432,8 +437,11 @@ mod app {
                         t.write(mil_frames::slcan::OK);
                         t.flush();
                     });
-                    let app = app.lock(|a| a.clone());
-                    crate::report::qemu_report(&app, timings, &qemu.calibration, &qemu.tick_info);
+                    // Under the lock (the link is closed, nothing else runs): no copy of the
+                    // application (kilobytes) on this task's stack.
+                    app.lock(|a| {
+                        crate::report::qemu_report(a, timings, &qemu.calibration, &qemu.tick_info)
+                    });
                 }
             }
             tx.lock(|t| t.flush());
@@ -563,7 +571,7 @@ mod app {
     /// interleave). Holds the slave for the command (which blocks only the DAQ task and the
     /// watchdog tick, never the control step); a calibration change is validated on a copy
     /// and swapped in under the application's short lock (`mil_firmware::xcp::Target`).
-    #[task(priority = 1, shared = [app, tx, xcp, aux_tx], local = [store])]
+    #[task(priority = 1, shared = [app, tx, xcp, aux_tx, candidate], local = [store])]
     async fn xcp(cx: xcp::Context, mut receiver: Receiver<'static, XcpRequest, XCP_QUEUE>) {
         let store = cx.local.store;
         let xcp::SharedResources {
@@ -571,6 +579,7 @@ mod app {
             mut tx,
             xcp: mut slave,
             mut aux_tx,
+            mut candidate,
             ..
         } = cx.shared;
         // Seed entropy: SysTick's count on the board (it runs, see `clock`); QEMU does not
@@ -582,13 +591,26 @@ mod app {
         let mut platform = StepPlatform::new(|| 0);
         let mut out = Responses::new();
         while let Ok(request) = receiver.recv().await {
-            handle_xcp(&request, &mut slave, &mut app, &mut platform, &mut out);
+            candidate.lock(|candidate| {
+                handle_xcp(
+                    &request,
+                    &mut slave,
+                    &mut app,
+                    candidate,
+                    &mut platform,
+                    &mut out,
+                );
+            });
             send_xcp(request.link, out.iter(), &mut tx, &mut aux_tx);
             // A calibration store the command asked for (SET_REQUEST STORE_CAL_REQ, taken only
             // while the controller does not run): the working page to flash, then the slave
             // clears its pending bit and sends EV_STORE_CAL.
             if slave.lock(|s| s.as_ref().is_some_and(Slave::store_pending)) {
-                let result = store::store_working(store).await;
+                let valid = |words: &[u32; calibration::SLOTS]| {
+                    candidate
+                        .lock(|c| calibration::decode_page_into(words, &mut c.prepared).is_ok())
+                };
+                let result = store::store_working(store, valid).await;
                 crate::log!(
                     "calibration store: {}",
                     result.map_or_else(|e| e as u8, |()| 0)
@@ -608,6 +630,7 @@ mod app {
         request: &XcpRequest,
         slave: &mut impl rtic::Mutex<T = Option<Slave>>,
         app: &mut impl rtic::Mutex<T = Application>,
+        candidate: &mut calibration::Candidate,
         platform: &mut P,
         out: &mut Responses,
     ) {
@@ -616,7 +639,8 @@ mod app {
             let Some(s) = s.as_mut() else {
                 return;
             };
-            let mut target = mil_firmware::xcp::Target::with_page(Locked(app), s.ecu_page());
+            let mut target =
+                mil_firmware::xcp::Target::with_page(Locked(app), s.ecu_page(), candidate);
             s.handle(cto, &mut target, platform, out);
             DAQ_RUNNING.store(s.daq_running(), Ordering::Relaxed);
         });
@@ -711,12 +735,13 @@ mod app {
     /// page, validated as a whole page outside any lock and installed under a short one,
     /// refused while the controller runs the reference page, and, unless safe without it,
     /// only while an XCP session holds the calibration unlocked (seed & key).
-    #[task(priority = 1, shared = [app, tx, xcp])]
+    #[task(priority = 1, shared = [app, tx, xcp, candidate])]
     async fn configure(cx: configure::Context, mut receiver: Receiver<'static, Request, QUEUE>) {
         let configure::SharedResources {
             mut app,
             mut tx,
             xcp: mut slave,
+            mut candidate,
             ..
         } = cx.shared;
         while let Ok(request) = receiver.recv().await {
@@ -736,8 +761,10 @@ mod app {
                             )
                         })
                     });
-                    mil_firmware::xcp::Target::with_page(Locked(&mut app), page)
-                        .command_frame(&command, unlocked)
+                    candidate.lock(|candidate| {
+                        mil_firmware::xcp::Target::with_page(Locked(&mut app), page, candidate)
+                            .command_frame(&command, unlocked)
+                    })
                 }
             };
             if matches!(

@@ -180,10 +180,17 @@ impl<F: NorFlash> Store<F> {
     }
 
     /// Saves `words` (the working page) as the page to boot with. A page that does not
-    /// validate is refused before anything is written; after writing, the record is read
-    /// back and compared.
-    pub async fn save(&mut self, words: &[u32; SLOTS]) -> Result<(), StoreError> {
-        calibration::decode_page(words).map_err(|_| StoreError::Invalid)?;
+    /// validate (`valid`: [`calibration::decode_page_into`] succeeds on it, into the
+    /// configuration tasks' candidate on the board) is refused before anything is written;
+    /// after writing, the record is read back and compared.
+    pub async fn save(
+        &mut self,
+        words: &[u32; SLOTS],
+        valid: impl FnOnce(&[u32; SLOTS]) -> bool,
+    ) -> Result<(), StoreError> {
+        if !valid(words) {
+            return Err(StoreError::Invalid);
+        }
         let record = encode(words);
         let mut buffer = [0u8; BUFFER_BYTES];
         self.map
@@ -218,13 +225,14 @@ impl<F: NorFlash> Store<F> {
 pub async fn boot<F: NorFlash>(
     app: &mut crate::application::Application,
     store: &mut Store<F>,
+    candidate: &mut calibration::Candidate,
 ) -> Source {
     let loaded = store.load().await;
     let words = match &loaded {
         Loaded::Stored(words) => Some(words),
         _ => None,
     };
-    let source = app.boot_with(loaded.source(), words);
+    let source = app.boot_with(loaded.source(), words, candidate);
     app.mirror_to_working_page();
     calibration::store_u32(meas::CAL_SOURCE, source as u32);
     source
@@ -234,8 +242,11 @@ pub async fn boot<F: NorFlash>(
 /// measurement block ([`note_store`]). The XCP task calls it for a pending
 /// SET_REQUEST STORE_CAL_REQ, then tells the slave
 /// ([`mil_xcp::Slave::store_finished`]).
-pub async fn store_working<F: NorFlash>(store: &mut Store<F>) -> Result<(), StoreError> {
-    let result = store.save(&calibration::working_words()).await;
+pub async fn store_working<F: NorFlash>(
+    store: &mut Store<F>,
+    valid: impl FnOnce(&[u32; SLOTS]) -> bool,
+) -> Result<(), StoreError> {
+    let result = store.save(&calibration::working_words(), valid).await;
     note_store(result);
     result
 }
@@ -425,6 +436,11 @@ impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
 mod tests {
     extern crate std;
 
+    /// The page validates (what the board checks in its candidate).
+    fn valid(words: &[u32; SLOTS]) -> bool {
+        calibration::decode_page(words).is_ok()
+    }
+
     use super::*;
     use crate::calibration::{page_values, test_lock, DEFAULT_SETTINGS, SLOT_WATCHDOG};
     use crate::config::default_params;
@@ -467,13 +483,16 @@ mod tests {
         // Enough stores to fill pages and make the crate erase and move on.
         for k in 0..60 {
             let words = page(1.0e5 + 1000.0 * k as f32);
-            assert_eq!(complete(s.save(&words)), Some(Ok(())), "store {k}");
+            assert_eq!(complete(s.save(&words, valid)), Some(Ok(())), "store {k}");
             assert_eq!(complete(s.load()), Some(Loaded::Stored(words)));
         }
         // A page that would not validate is not written.
         let mut bad = page(2.0e5);
         bad[SLOT_WATCHDOG] = 0.5f32.to_bits();
-        assert_eq!(complete(s.save(&bad)), Some(Err(StoreError::Invalid)));
+        assert_eq!(
+            complete(s.save(&bad, valid)),
+            Some(Err(StoreError::Invalid))
+        );
         assert_eq!(
             complete(s.load()),
             Some(Loaded::Stored(page(1.0e5 + 59_000.0)))
@@ -500,7 +519,10 @@ mod tests {
         let mut s = Store::new(map.destroy().0, 0..16384).expect("range");
         assert_eq!(complete(s.load()), Some(Loaded::Stored(bad)));
         let mut app = crate::application::Application::new(256).expect("app");
-        assert_eq!(complete(boot(&mut app, &mut s)), Some(Source::Refused));
+        assert_eq!(
+            complete(boot(&mut app, &mut s, crate::calibration::host_candidate())),
+            Some(Source::Refused)
+        );
         assert_eq!(app.params(), &default_params());
         assert_eq!(app.calibration_source(), Source::Refused);
         crate::calibration::mirror(&default_params(), &DEFAULT_SETTINGS);
@@ -527,7 +549,7 @@ mod tests {
                 } else {
                     page(1.0e5 + k as f32)
                 };
-                assert_eq!(complete(s.save(&w)), Some(Ok(())));
+                assert_eq!(complete(s.save(&w, valid)), Some(Ok(())));
             }
             states.push((records, s.into_flash()));
         }
@@ -537,7 +559,7 @@ mod tests {
             let mut whole = flash.clone();
             whole.power_on();
             let mut s = store(whole);
-            assert_eq!(complete(s.save(&new)), Some(Ok(())));
+            assert_eq!(complete(s.save(&new, valid)), Some(Ok(())));
             let steps = s.into_flash().steps();
             let (mut booted_old, mut booted_new) = (0, 0);
             for cut in 0..steps {
@@ -545,7 +567,7 @@ mod tests {
                 f.power_on();
                 f.cut_power_at(cut);
                 let mut s = store(f);
-                let result = complete(s.save(&new));
+                let result = complete(s.save(&new, valid));
                 assert!(
                     matches!(result, Some(Err(_))),
                     "{records} records, cut at step {cut}: {result:?}"
@@ -560,7 +582,7 @@ mod tests {
                     other => panic!("{records} records, cut at step {cut}: boots {other:?}"),
                 }
                 // And the next store after the reboot goes through.
-                assert_eq!(complete(s.save(&new)), Some(Ok(())));
+                assert_eq!(complete(s.save(&new, valid)), Some(Ok(())));
                 assert_eq!(complete(s.load()), Some(Loaded::Stored(new)));
             }
             report.push(std::format!(

@@ -25,8 +25,8 @@ use mil_frames::RawFrame;
 use mil_xcp::{Calibration, Memory, Page, Platform, Region, Rejected, SlaveConfig, StoreRefused};
 
 use crate::application::{Application, Command};
-use crate::calibration::{self, meas, Settings, MEASUREMENTS, MEASUREMENT_BYTES, PAGE_BYTES};
-use crate::config::{Prepared, SAMPLE_RATE_HZ, XCP_ID, XCP_RESPONSE_ID};
+use crate::calibration::{self, meas, Candidate, MEASUREMENTS, MEASUREMENT_BYTES, PAGE_BYTES};
+use crate::config::{SAMPLE_RATE_HZ, XCP_ID, XCP_RESPONSE_ID};
 use crate::params::code;
 
 /// The control step's period (µs): XCP event channel 0's cycle and the DAQ clock's tick.
@@ -188,9 +188,12 @@ impl AppAccess for Application {
 }
 
 /// The XCP target (see the module documentation).
-pub struct Target<A> {
+pub struct Target<'c, A> {
     app: A,
     ecu_page: Page,
+    /// Where a change is validated and prepared (kilobytes: owned by the configuration
+    /// tasks, never on a stack).
+    candidate: &'c mut Candidate,
 }
 
 /// The XCP rejection for a CommandAck code.
@@ -204,16 +207,21 @@ pub fn rejection(c: u8) -> Rejected {
     }
 }
 
-impl<A: AppAccess> Target<A> {
-    /// The target over `app`; the controller runs on the working page.
-    pub fn new(app: A) -> Self {
-        Self::with_page(app, Page::Working)
+impl<'c, A: AppAccess> Target<'c, A> {
+    /// The target over `app`, validating changes in `candidate`; the controller runs on the
+    /// working page.
+    pub fn new(app: A, candidate: &'c mut Candidate) -> Self {
+        Self::with_page(app, Page::Working, candidate)
     }
 
     /// The target over `app` with the controller running on `ecu_page` (the firmware makes
     /// one per command, with the slave's [`mil_xcp::Slave::ecu_page`]).
-    pub fn with_page(app: A, ecu_page: Page) -> Self {
-        Self { app, ecu_page }
+    pub fn with_page(app: A, ecu_page: Page, candidate: &'c mut Candidate) -> Self {
+        Self {
+            app,
+            ecu_page,
+            candidate,
+        }
     }
 
     /// The page the controller runs on.
@@ -226,17 +234,18 @@ impl<A: AppAccess> Target<A> {
         &mut self.app
     }
 
-    /// Installs `prepared` and `settings` under one lock, as one transaction
-    /// ([`Application::install`]): all of it, or (CommandAck code) nothing.
-    fn install(&mut self, prepared: &Prepared, settings: Settings) -> Result<(), u8> {
-        match self.app.with(|a| a.install(prepared, settings)) {
+    /// Installs the candidate's prepared set and settings under one lock, as one
+    /// transaction ([`Application::install`]): all of it, or (CommandAck code) nothing.
+    fn install(&mut self) -> Result<(), u8> {
+        let Self { app, candidate, .. } = self;
+        match app.with(|a| a.install(&candidate.prepared, candidate.settings)) {
             code::OK => Ok(()),
             c => Err(c),
         }
     }
 }
 
-impl<A: AppAccess> Target<A> {
+impl<A: AppAccess> Target<'_, A> {
     /// A Command frame's command, as the configuration task applies it; returns the
     /// CommandAck code. `cal_unlocked`: an XCP session holds CAL/PAG unlocked (seed & key).
     ///
@@ -281,10 +290,9 @@ impl<A: AppAccess> Target<A> {
             },
         };
         // The value first: a bad value is named as such, whoever sends it.
-        let change = match self.validate(4 * slot, &value.to_le_bytes()) {
-            Ok(change) => change,
-            Err(c) => return c,
-        };
+        if let Err(c) = self.validate(4 * slot, &value.to_le_bytes()) {
+            return c;
+        }
         let watchdog = self.app.with(|a| a.watchdog().limit);
         if !cal_unlocked && !safe_without_unlock(slot, value, watchdog) {
             return code::LOCKED;
@@ -292,7 +300,7 @@ impl<A: AppAccess> Target<A> {
         if self.ecu_page == Page::Reference {
             return code::REFERENCE_PAGE;
         }
-        match self.commit(change) {
+        match self.commit() {
             Ok(()) => code::OK,
             Err(c) => c,
         }
@@ -317,7 +325,7 @@ pub fn safe_without_unlock(slot: usize, value: f32, watchdog: u16) -> bool {
     }
 }
 
-impl<A> Memory for Target<A> {
+impl<A> Memory for Target<'_, A> {
     fn read_calibration(&self, page: Page, offset: usize, out: &mut [u8]) {
         calibration::read(board_page(page), offset, out);
     }
@@ -327,20 +335,23 @@ impl<A> Memory for Target<A> {
     }
 }
 
-impl<A: AppAccess> Calibration for Target<A> {
+impl<A: AppAccess> Calibration for Target<'_, A> {
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), Rejected> {
         noted(self.write_page(offset, data).map_err(rejection))
     }
 
+    /// The reference page's words written over the whole working page: one transaction as
+    /// a write of every byte (validated as a whole, installed while the controller runs the
+    /// working page, stored).
     fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
-        let mut bytes = [0u8; PAGE_BYTES];
-        for (chunk, word) in bytes
-            .chunks_exact_mut(4)
-            .zip(calibration::reference_words())
-        {
-            chunk.copy_from_slice(&word.to_le_bytes());
-        }
-        noted(self.write_page(0, &bytes).map_err(rejection))
+        let copy = |t: &mut Self| {
+            t.candidate.prepared.params_mut();
+            t.candidate.words = calibration::reference_words();
+            t.candidate.settings =
+                calibration::decode_page_into(&t.candidate.words, &mut t.candidate.prepared)?;
+            t.commit()
+        };
+        noted(copy(self).map_err(rejection))
     }
 
     fn select_ecu_page(&mut self, page: Page) -> Result<(), Rejected> {
@@ -363,29 +374,32 @@ impl<A: AppAccess> Calibration for Target<A> {
     }
 }
 
-impl<A: AppAccess> Target<A> {
+impl<A: AppAccess> Target<'_, A> {
     /// Writes `data` at byte `offset` of the working page as one transaction
     /// ([`Self::validate`], then [`Self::commit`]).
     fn write_page(&mut self, offset: usize, data: &[u8]) -> Result<(), u8> {
-        let change = self.validate(offset, data)?;
-        self.commit(change)
+        self.validate(offset, data)?;
+        self.commit()
     }
 
     /// The working page with `data` written at byte `offset`, validated as a whole page
-    /// (CommandAck code of the refusal). Changes nothing.
-    fn validate(&self, offset: usize, data: &[u8]) -> Result<calibration::Accepted, u8> {
-        calibration::validate_write(&calibration::working_words(), offset, data)
+    /// into the candidate (CommandAck code of the refusal). Changes nothing else.
+    fn validate(&mut self, offset: usize, data: &[u8]) -> Result<(), u8> {
+        calibration::validate_write(&calibration::working_words(), offset, data, self.candidate)
     }
 
-    /// Makes a validated change: while the controller runs the working page the new set is
-    /// installed with it ([`Self::install`]), while it runs the reference page the change
-    /// waits in the working page; then the page is stored. A refused install (CommandAck
-    /// code) changes neither the page nor the running set.
-    fn commit(&mut self, change: calibration::Accepted) -> Result<(), u8> {
-        if self.ecu_page == Page::Working {
-            self.install(&change.prepared, change.settings)?;
+    /// Makes the validated change in the candidate: while the controller runs the working
+    /// page the new set is installed with it ([`Self::install`]), while it runs the
+    /// reference page the change waits in the working page; then the page is stored. A
+    /// refused install (CommandAck code) changes neither the page nor the running set.
+    fn commit(&mut self) -> Result<(), u8> {
+        if !self.candidate.prepared.is_ready() {
+            return Err(code::INCONSISTENT);
         }
-        calibration::store_working(&change.words);
+        if self.ecu_page == Page::Working {
+            self.install()?;
+        }
+        calibration::store_working(&self.candidate.words);
         Ok(())
     }
 
@@ -396,8 +410,9 @@ impl<A: AppAccess> Target<A> {
             Page::Working => calibration::working_words(),
             Page::Reference => calibration::reference_words(),
         };
-        let (prepared, settings) = calibration::decode_page(&words)?;
-        self.install(&prepared, settings)?;
+        self.candidate.settings =
+            calibration::decode_page_into(&words, &mut self.candidate.prepared)?;
+        self.install()?;
         self.ecu_page = page;
         Ok(())
     }
@@ -446,7 +461,7 @@ mod tests {
 
     struct Session {
         slave: Slave,
-        target: Target<Application>,
+        target: Target<'static, Application>,
         platform: MockPlatform,
         out: Responses,
     }
@@ -457,7 +472,7 @@ mod tests {
             app.mirror_to_working_page();
             Self {
                 slave: slave(),
-                target: Target::new(app),
+                target: Target::new(app, crate::calibration::host_candidate()),
                 platform: MockPlatform::default(),
                 out: Responses::default(),
             }
@@ -589,9 +604,9 @@ mod tests {
         }
 
         /// The running set, settings included.
-        fn running(&self) -> (crate::config::Params, Settings) {
+        fn running(&self) -> (crate::config::Params, crate::calibration::Settings) {
             let a = &self.target.app;
-            let settings = Settings {
+            let settings = crate::calibration::Settings {
                 status_period: a.status_period(),
                 watchdog: a.watchdog().limit,
                 sample_rate_hz: a.sample_rate_hz(),
@@ -764,7 +779,11 @@ mod tests {
         let mut flash = Store::new(RamFlash::<4, 4096>::new(), 0..16384).expect("range");
         let mut s = Session::new();
         assert_eq!(
-            complete(store::boot(&mut s.target.app, &mut flash)),
+            complete(store::boot(
+                &mut s.target.app,
+                &mut flash,
+                crate::calibration::host_candidate()
+            )),
             Some(Source::Defaults)
         );
         s.connect_and_unlock();
@@ -786,7 +805,9 @@ mod tests {
         assert_eq!(s.send(&[0xF9, 0x01, 0, 0]), [0xFF]);
         assert_eq!(s.send(&[0xFD])[1] & 0x01, 0x01, "GET_STATUS: store pending");
         let stores = calibration::measurement_words()[meas::CAL_STORES];
-        let result = complete(store::store_working(&mut flash));
+        let result = complete(store::store_working(&mut flash, |w| {
+            calibration::decode_page(w).is_ok()
+        }));
         assert_eq!(result, Some(Ok(())));
         s.slave.store_finished(true, &mut s.out);
         assert_eq!(s.out.iter().next(), Some(&[0xFD, 0x03][..]));
@@ -802,7 +823,11 @@ mod tests {
         s.restore();
         let mut s = Session::new();
         assert_eq!(
-            complete(store::boot(&mut s.target.app, &mut flash)),
+            complete(store::boot(
+                &mut s.target.app,
+                &mut flash,
+                crate::calibration::host_candidate()
+            )),
             Some(Source::Stored)
         );
         assert_eq!(calibration::working_words(), stored);
@@ -840,7 +865,11 @@ mod tests {
         s.restore();
         let mut s = Session::new();
         assert_eq!(
-            complete(store::boot(&mut s.target.app, &mut other)),
+            complete(store::boot(
+                &mut s.target.app,
+                &mut other,
+                crate::calibration::host_candidate()
+            )),
             Some(Source::Refused)
         );
         assert_eq!(s.target.app.params().tyre.tyre[0].stiffness, TYRE.stiffness);

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use mil_a2l::{Block, Layout};
 use mil_firmware::application::Application;
-use mil_firmware::calibration::{MEASUREMENT_BYTES, PAGE_BYTES};
+use mil_firmware::calibration::{Candidate, MEASUREMENT_BYTES, PAGE_BYTES};
 use mil_firmware::config::TYRE;
 use mil_firmware::xcp::Target;
 use mil_xcp::mock::{MockPlatform, TEST_SECRET};
@@ -43,7 +43,8 @@ fn the_firmwares_own_checks_answer_through_the_master() {
     app.mirror_to_working_page();
     let board = SimBoard::new(
         slave,
-        Target::new(app),
+        // The configuration tasks' candidate (a static on the board).
+        Target::new(app, Box::leak(Box::new(Candidate::NEW))),
         MockPlatform::default(),
         CanIds::default(),
     );
@@ -55,7 +56,7 @@ fn the_firmwares_own_checks_answer_through_the_master() {
     m.connect().unwrap();
     m.unlock(resource::CAL_PAG, TEST_SECRET).unwrap();
     let c = |n: &str| a.characteristic(n).unwrap();
-    let app = |m: &mut Master<Loopback<Target<Application>, MockPlatform>>| {
+    let app = |m: &mut Master<Loopback<Target<'static, Application>, MockPlatform>>| {
         *m.transport_mut().board.target.app_mut().params()
     };
 
@@ -138,7 +139,7 @@ fn the_firmwares_own_checks_answer_through_the_master() {
     // runs the aero model.
     let configuration = [c("sample_rate"), c("model_kind"), c("model_channels")];
     let aero = [1000.0, 1.0, 2.0];
-    let board = |m: &mut Master<Loopback<Target<Application>, MockPlatform>>| {
+    let board = |m: &mut Master<Loopback<Target<'static, Application>, MockPlatform>>| {
         let a = m.transport_mut().board.target.app_mut();
         (a.controller().kind(), a.channels(), a.controller().mode())
     };
