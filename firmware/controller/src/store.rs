@@ -41,6 +41,7 @@ const BUFFER_BYTES: usize = (1 + RECORD_BYTES).div_ceil(32) * 32;
 
 /// What [`Store::load`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(clippy::large_enum_variant)] // read once at boot and on a store's check: the page
 pub enum Loaded {
     /// Nothing stored.
     Empty,
