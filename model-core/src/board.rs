@@ -128,6 +128,58 @@ impl BoardParams {
         }
     }
 
+    /// The board's set that runs the tyre controller `p` (its `CH` channels); the other
+    /// kinds' parameters at [`BoardParams::tyres`]' starting values.
+    pub fn of_tyres<const CH: usize>(p: &ControllerParams<TyreModelParams<CH>, CH>) -> Self {
+        let mut b = Self::with_channels(ModelKind::Tyre, p);
+        b.tyre.tyre = fit(&p.model.tyre, TyreParams::PAPER);
+        b
+    }
+
+    /// The board's set that runs the aero controller `p`.
+    pub fn of_aero(p: &ControllerParams<AeroParams, 2>) -> Self {
+        let mut b = Self::with_channels(ModelKind::Aero, p);
+        b.aero = p.model;
+        b
+    }
+
+    /// The board's set that runs the substructure controller `p` (its `CH` channels; the
+    /// board's further channels unconnected).
+    pub fn of_substructure<const CH: usize>(
+        p: &ControllerParams<SubstructureParams<CH>, CH>,
+    ) -> Self {
+        let mut b = Self::with_channels(ModelKind::Substructure, p);
+        b.substructure = p.model.first_channels::<BOARD_CHANNELS>();
+        // The page holds a DOF for every channel; the channel count leaves these unconnected.
+        for i in b.substructure.interface.iter_mut().skip(CH) {
+            *i = InterfaceParams {
+                dof: 0,
+                stiffness: 0.0,
+                damping: 0.0,
+            };
+        }
+        b
+    }
+
+    /// Kind `kind` on the channels of `p` with their filters, limits and safe state.
+    fn with_channels<P, const CH: usize>(kind: ModelKind, p: &ControllerParams<P, CH>) -> Self {
+        let first = |v: &[f32]| v.first().copied().unwrap_or(0.0);
+        let limits = p.limits.first().copied().unwrap_or(UNUSED_LIMITS);
+        let mut b = Self::tyres(
+            TyreParams::PAPER,
+            CH as u32,
+            limits,
+            first(&p.safe_demand),
+            first(&p.safe_ramp_rate),
+        );
+        b.kind = kind as u32;
+        b.filter = fit(&p.filter, CascadeCoefficients::IDENTITY);
+        b.limits = fit(&p.limits, limits);
+        b.safe_demand = fit(&p.safe_demand, first(&p.safe_demand));
+        b.safe_ramp_rate = fit(&p.safe_ramp_rate, first(&p.safe_ramp_rate));
+        b
+    }
+
     /// The model kind, if the selector is valid.
     pub fn model_kind(&self) -> Option<ModelKind> {
         ModelKind::from_u32(self.kind)

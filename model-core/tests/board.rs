@@ -568,3 +568,62 @@ fn a_narrow_substructure_runs_as_a_controller_of_its_width() {
         check::<3>(causality);
     }
 }
+
+/// A controller of any configuration, as the board's set: the board runs it bit for bit
+/// (what `mil sim --board qemu` relies on to configure the firmware for a set-up).
+#[test]
+fn a_controllers_set_runs_on_the_board_bit_for_bit() {
+    let s = substructure(2, Causality::Impedance);
+    let sub = ControllerParams {
+        model: s.substructure.first_channels::<2>(),
+        filter: [CascadeCoefficients::IDENTITY; 2],
+        limits: [limits(-5000.0, 5000.0), limits(-4000.0, 6000.0)],
+        safe_demand: [0.0, 10.0],
+        safe_ramp_rate: [1.0e4, 2.0e4],
+    };
+    let a = aero();
+    let aero_params = ControllerParams {
+        model: AeroParams::PAPER,
+        filter: [CascadeCoefficients::IDENTITY; 2],
+        limits: [limits(-20_000.0, 5000.0); 2],
+        safe_demand: [-3000.0, -5000.0],
+        safe_ramp_rate: [5.0e4; 2],
+    };
+    let mut host_sub =
+        Controller::<model_core::SubstructureModel<2>, 2>::with_params(&sub, DT).unwrap();
+    let mut host_aero = Controller::<AeroModel, 2>::with_params(&aero_params, DT).unwrap();
+    let board_sub = BoardParams::of_substructure(&sub);
+    let board_aero = BoardParams::of_aero(&aero_params);
+    // Both fit the board's page word for word (what XCP writes).
+    for p in [&board_sub, &board_aero] {
+        assert_eq!(
+            model_core::page::from_words(&model_core::page::to_words(p)),
+            Ok(*p)
+        );
+    }
+    assert_eq!((board_aero.kind, board_aero.channels), (a.kind, 2));
+    let mut on_board = [
+        BoardController::with_params(&board_sub, DT).unwrap(),
+        BoardController::with_params(&board_aero, DT).unwrap(),
+    ];
+    assert!(host_sub.start() && host_aero.start());
+    assert!(on_board.iter_mut().all(BoardController::start));
+    for k in 0..1000 {
+        let i = input(k);
+        let two = ModelInput {
+            position: model_core::board::fit(&i.position, 0.0),
+            force: model_core::board::fit(&i.force, 0.0),
+            road: model_core::board::fit(&i.road, 0.0),
+            speed: i.speed,
+        };
+        let want = [host_sub.step(&two), host_aero.step(&two)];
+        for (board, want) in on_board.iter_mut().zip(want) {
+            let got = board.step(&i);
+            assert_eq!(
+                [got[0].to_bits(), got[1].to_bits()],
+                want.map(f32::to_bits),
+                "step {k}"
+            );
+        }
+    }
+}

@@ -5,9 +5,10 @@ use std::time::{Duration, Instant};
 use mil_firmware::config::{default_params, Controller, DT};
 use mil_firmware::link::wire_mode;
 use mil_frames::{
-    decode, encode_command, encode_demand, encode_measurement, Command, CommandAck, CommandKind,
-    DemandFlags, Message, RawFrame, Status as StatusFrame,
+    decode, encode_command, encode_demand, encode_measurement, encode_measurement_aux, Command,
+    CommandAck, CommandKind, DemandFlags, Message, RawFrame, Status as StatusFrame,
 };
+use model_core::board::{BoardParams, ModelKind, BOARD_CHANNELS};
 use model_core::{Mode, ModelInput, Status};
 
 use crate::transport::Transport;
@@ -34,22 +35,27 @@ impl Sample {
     }
 }
 
-/// The board (one tyre channel, as `mil-firmware`) behind a [`Transport`], as a
-/// `mil_rig::harness::Board<1>`.
+/// The board (`mil-firmware`, any configuration) behind a [`Transport`], as a
+/// `mil_rig::harness::Board<CH>` for the running configuration's `CH` channels.
 ///
-/// `step` sends the input's position and road as a Measurement frame (counter incrementing
-/// modulo 256) and waits for the Demand frame echoing that counter; Status frames,
-/// CommandAcks and demands with another counter seen meanwhile are kept. The **mirror**, a
-/// host `model_core` controller with the firmware's defaults
-/// (`mil_firmware::config::default_params()` at `DT`), is fed with the *decoded*
-/// measurement frame (exactly the values the firmware sees; no force or speed, as no
-/// MeasurementAux frames are sent) and its demand encoded with `mil_frames::encode_demand`;
-/// [`RemoteBoard::mismatches`] counts the samples whose frames differ.
+/// `step` sends, for each channel, a MeasurementAux frame with its force and the speed
+/// (only where the running model reads them: aero, and a substructure that takes forces)
+/// and its Measurement frame with position and road (counter incrementing modulo 256), and
+/// waits for the `CH` Demand frames echoing that counter; Status frames, CommandAcks and
+/// demands with another counter seen meanwhile are kept. The **mirror**, a host
+/// `model_core` board controller with the firmware's defaults
+/// (`mil_firmware::config::default_params()` at `DT`, or the set given to
+/// [`RemoteBoard::set_mirror`]), is fed with the *decoded* frames (exactly the values the
+/// firmware sees, kept between samples as the firmware keeps them) and its demands encoded
+/// with `mil_frames::encode_demand`; [`RemoteBoard::mismatches`] counts the demand frames
+/// that differ.
 pub struct RemoteBoard<T: Transport> {
     transport: T,
     timeout: Duration,
     counter: u8,
     mirror: Controller,
+    /// The mirror's input as the firmware holds it (updated by each frame sent).
+    input: ModelInput<BOARD_CHANNELS>,
     status: Status,
     samples: Vec<Sample>,
     statuses: Vec<StatusFrame>,
@@ -82,6 +88,7 @@ impl<T: Transport> RemoteBoard<T> {
             timeout: DEFAULT_REPLY_TIMEOUT,
             counter: 0,
             mirror,
+            input: ModelInput::default(),
             status,
             samples: Vec::new(),
             statuses: Vec::new(),
@@ -156,6 +163,82 @@ impl<T: Transport> RemoteBoard<T> {
     /// The host mirror of the firmware's controller.
     pub fn mirror(&self) -> &Controller {
         &self.mirror
+    }
+
+    /// Makes the mirror an idle controller of `params` at sample period `dt` (s): after the
+    /// firmware was configured with the same set (e.g. [`crate::configure`]).
+    ///
+    /// # Errors
+    /// The set is refused by model-core (the firmware refuses it too).
+    pub fn set_mirror(&mut self, params: &BoardParams, dt: f32) -> Result<(), String> {
+        self.mirror =
+            Controller::with_params(params, dt).map_err(|e| format!("mirror parameters: {e:?}"))?;
+        self.status = self.mirror.status();
+        Ok(())
+    }
+
+    /// Sends Start and waits for its acknowledgement (the mirror starts with it).
+    ///
+    /// # Errors
+    /// A transport error, no acknowledgement, or the board refused.
+    pub fn start(&mut self) -> Result<(), String> {
+        let ack = self.command(CommandKind::Start, 0, 0.0)?;
+        if ack.result != 0 {
+            return Err(format!("Start refused with code {}", ack.result));
+        }
+        self.status.mode = mode_of(ack.mode);
+        Ok(())
+    }
+
+    /// Replays on the mirror the page writes the board accepted (e.g.
+    /// [`crate::Configured::writes`]), starting from its working page `start`: each write
+    /// is installed as the firmware installs it (the whole page decoded, the set swapped in
+    /// between two steps), so the mirror's demand follows the firmware's across a change
+    /// of configuration (which continues the demand rather than stepping it).
+    ///
+    /// # Errors
+    /// A write the mirror refuses where the board accepted it (the two disagree).
+    pub fn replay(
+        &mut self,
+        start: &[u32; mil_firmware::calibration::SLOTS],
+        writes: &[(usize, u32)],
+    ) -> Result<(), String> {
+        let mut page = *start;
+        for &(slot, word) in writes {
+            let w = page
+                .get_mut(slot)
+                .ok_or_else(|| format!("slot {slot} beyond the page"))?;
+            *w = word;
+            let (prepared, _) = mil_firmware::calibration::decode_page(&page).map_err(|code| {
+                format!("the mirror refuses the write of slot {slot} (code {code}) the board took")
+            })?;
+            self.mirror.swap(&prepared).map_err(|e| {
+                format!("the mirror refuses to install slot {slot} ({e:?}) where the board did")
+            })?;
+        }
+        self.status = self.mirror.status();
+        Ok(())
+    }
+
+    /// The running model reads the channels' forces and the speed (MeasurementAux frames).
+    fn sends_aux(&self) -> bool {
+        match self.mirror.kind() {
+            ModelKind::Tyre => false,
+            ModelKind::Aero => true,
+            ModelKind::Substructure => {
+                self.mirror
+                    .params()
+                    .substructure
+                    .causality()
+                    .is_some_and(|c| {
+                        matches!(
+                            c,
+                            model_core::Causality::Admittance
+                                | model_core::Causality::AdmittanceThroughImpedance
+                        )
+                    })
+            }
+        }
     }
 
     /// Receives the next decoded board-to-host message within `timeout` (`None` on
@@ -285,63 +368,107 @@ impl<T: Transport> RemoteBoard<T> {
         }
     }
 
-    /// The demand of the mirror for the decoded measurement, as a frame.
-    fn mirror_step(&mut self, m: &mil_frames::Measurement) -> Result<RawFrame, String> {
-        let mut input = ModelInput::default();
-        input.position[0] = m.position_m;
-        input.road[0] = m.road_m;
-        let force = self.mirror.step(&input)[0];
+    /// The mirror's step on its input: the demand frame of each of the first `channels`
+    /// channels, echoing `counter`.
+    fn mirror_step(&mut self, channels: usize, counter: u8) -> Result<Vec<RawFrame>, String> {
+        let demand = self.mirror.step(&self.input);
         let s = self.mirror.status();
-        encode_demand(
-            &LAYOUT,
-            &mil_frames::Demand {
-                channel: 0,
-                demand_n: force,
-                counter: m.counter,
-                flags: DemandFlags {
-                    mode: wire_mode(s.mode),
-                    fault_latched: s.mode == Mode::Fault,
-                    amplitude_limited: s.amplitude_limited & 1 != 0,
-                    rate_limited: s.rate_limited & 1 != 0,
+        (0..channels)
+            .map(|ch| {
+                let bit = |mask: u8| mask.checked_shr(ch as u32).unwrap_or(0) & 1 != 0;
+                encode_demand(
+                    &LAYOUT,
+                    &mil_frames::Demand {
+                        channel: ch as u8,
+                        demand_n: demand.get(ch).copied().unwrap_or(0.0),
+                        counter,
+                        flags: DemandFlags {
+                            mode: wire_mode(s.mode),
+                            fault_latched: s.mode == Mode::Fault,
+                            amplitude_limited: bit(s.amplitude_limited),
+                            rate_limited: bit(s.rate_limited),
+                        },
+                    },
+                )
+                .map_err(|e| format!("mirror demand: {e:?}"))
+            })
+            .collect()
+    }
+
+    /// The frames of one sample of `input` (aux frames where the model reads them, then
+    /// the measurements), with the mirror's input updated from their decoded values.
+    fn sample_frames<const CH: usize>(
+        &mut self,
+        input: &ModelInput<CH>,
+        counter: u8,
+    ) -> Result<(Vec<RawFrame>, Vec<RawFrame>), String> {
+        let aux = self.sends_aux();
+        let mut frames = Vec::with_capacity(2 * CH);
+        let mut measurements = Vec::with_capacity(CH);
+        for ch in 0..CH {
+            if aux {
+                let frame = encode_measurement_aux(
+                    &LAYOUT,
+                    &mil_frames::MeasurementAux {
+                        channel: ch as u8,
+                        force_n: input.force[ch],
+                        speed_m_s: input.speed,
+                    },
+                )
+                .map_err(|e| format!("encode aux measurement: {e:?}"))?;
+                let Ok(Message::MeasurementAux(d)) = decode(&LAYOUT, &frame) else {
+                    return Err("the aux measurement frame does not decode".into());
+                };
+                self.input.force[ch] = d.force_n;
+                self.input.speed = d.speed_m_s;
+                frames.push(frame);
+            }
+            let frame = encode_measurement(
+                &LAYOUT,
+                &mil_frames::Measurement {
+                    channel: ch as u8,
+                    position_m: input.position[ch],
+                    road_m: input.road[ch],
+                    counter,
                 },
-            },
-        )
-        .map_err(|e| format!("mirror demand: {e:?}"))
+            )
+            .map_err(|e| format!("encode measurement: {e:?}"))?;
+            let Ok(Message::Measurement(d)) = decode(&LAYOUT, &frame) else {
+                return Err("the measurement frame does not decode".into());
+            };
+            self.input.position[ch] = d.position_m;
+            self.input.road[ch] = d.road_m;
+            frames.push(frame);
+            measurements.push(frame);
+        }
+        Ok((frames, measurements))
     }
 }
 
-impl<T: Transport> mil_rig::harness::Board<1> for RemoteBoard<T> {
+impl<T: Transport, const CH: usize> mil_rig::harness::Board<CH> for RemoteBoard<T> {
     fn start(&mut self) -> Result<(), String> {
-        let ack = self.command(CommandKind::Start, 0, 0.0)?;
-        if ack.result != 0 {
-            return Err(format!("Start refused with code {}", ack.result));
-        }
-        self.status.mode = mode_of(ack.mode);
-        Ok(())
+        RemoteBoard::start(self)
     }
 
-    fn step(&mut self, input: &ModelInput<1>) -> Result<[f32; 1], String> {
+    fn step(&mut self, input: &ModelInput<CH>) -> Result<[f32; CH], String> {
+        if CH != self.mirror.channels() {
+            return Err(format!(
+                "a {CH}-channel rig on a {}-channel configuration",
+                self.mirror.channels()
+            ));
+        }
         let counter = self.counter;
-        let frame = encode_measurement(
-            &LAYOUT,
-            &mil_frames::Measurement {
-                channel: 0,
-                position_m: input.position[0],
-                road_m: input.road[0],
-                counter,
-            },
-        )
-        .map_err(|e| format!("encode measurement: {e:?}"))?;
-        let Ok(Message::Measurement(decoded)) = decode(&LAYOUT, &frame) else {
-            return Err("the measurement frame does not decode".into());
-        };
-        let mirror = self.mirror_step(&decoded)?;
-        self.transport
-            .send(&frame)
-            .map_err(|e| format!("send measurement: {e}"))?;
+        let (frames, measurements) = self.sample_frames(input, counter)?;
+        let mirror = self.mirror_step(CH, counter)?;
+        for frame in &frames {
+            self.transport
+                .send(frame)
+                .map_err(|e| format!("send measurement: {e}"))?;
+        }
         self.counter = counter.wrapping_add(1);
         let deadline = Instant::now() + self.timeout;
-        loop {
+        let mut replies: [Option<(RawFrame, mil_frames::Demand)>; CH] = [None; CH];
+        while replies.iter().any(Option::is_none) {
             let left = deadline.saturating_duration_since(Instant::now());
             let Some(reply) = self
                 .transport
@@ -354,26 +481,15 @@ impl<T: Transport> mil_rig::harness::Board<1> for RemoteBoard<T> {
                 ));
             };
             match decode(&LAYOUT, &reply) {
-                Ok(Message::Demand(d)) if d.counter == counter => {
-                    self.samples.push(Sample {
-                        measurement: frame,
-                        firmware: reply,
-                        mirror,
-                    });
-                    let fault = if d.flags.mode == mil_frames::Mode::Fault {
-                        self.statuses.last().map_or(0, |s| s.fault_causes)
-                    } else {
-                        0
-                    };
-                    self.status = Status {
-                        mode: mode_of(d.flags.mode),
-                        fault,
-                        amplitude_limited: u8::from(d.flags.amplitude_limited),
-                        rate_limited: u8::from(d.flags.rate_limited),
-                        invalid_input: 0,
-                    };
-                    self.await_followers()?;
-                    return Ok([d.demand_n]);
+                Ok(Message::Demand(d))
+                    if d.counter == counter
+                        && replies
+                            .get(usize::from(d.channel))
+                            .is_some_and(Option::is_none) =>
+                {
+                    if let Some(r) = replies.get_mut(usize::from(d.channel)) {
+                        *r = Some((reply, d));
+                    }
                 }
                 Ok(Message::Demand(d)) => self.stray_demands.push(d),
                 Ok(Message::Status(s)) => self.statuses.push(s),
@@ -381,6 +497,36 @@ impl<T: Transport> mil_rig::harness::Board<1> for RemoteBoard<T> {
                 Ok(_) | Err(_) => self.undecodable += 1,
             }
         }
+        let mut out = [0.0; CH];
+        let mut status = Status {
+            mode: Mode::Idle,
+            fault: 0,
+            amplitude_limited: 0,
+            rate_limited: 0,
+            invalid_input: 0,
+        };
+        for (ch, ((reply, measurement), mirror)) in
+            replies.iter().zip(&measurements).zip(&mirror).enumerate()
+        {
+            let Some((firmware, d)) = reply else {
+                return Err(format!("no demand of channel {ch}"));
+            };
+            self.samples.push(Sample {
+                measurement: *measurement,
+                firmware: *firmware,
+                mirror: *mirror,
+            });
+            out[ch] = d.demand_n;
+            status.mode = mode_of(d.flags.mode);
+            status.amplitude_limited |= u8::from(d.flags.amplitude_limited) << ch;
+            status.rate_limited |= u8::from(d.flags.rate_limited) << ch;
+        }
+        if status.mode == Mode::Fault {
+            status.fault = self.statuses.last().map_or(0, |s| s.fault_causes);
+        }
+        self.status = status;
+        self.await_followers()?;
+        Ok(out)
     }
 
     fn status(&self) -> Status {

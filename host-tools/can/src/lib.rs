@@ -26,6 +26,7 @@
 #![deny(missing_docs)]
 
 mod board;
+mod configure;
 pub mod footprint;
 mod qemu;
 mod slcan;
@@ -34,6 +35,7 @@ mod socket;
 mod transport;
 
 pub use board::{RemoteBoard, Sample, DEFAULT_REPLY_TIMEOUT};
+pub use configure::{configure, Configured};
 pub use qemu::{
     find_firmware_elf, listening_ports, Qemu, QemuOptions, QemuOutput, FIRMWARE_BUILD_COMMAND,
 };

@@ -42,6 +42,15 @@ struct Cli {
     command: Command,
 }
 
+/// The controller `mil sim` runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum SimBoard {
+    /// model-core's controller in this process.
+    Host,
+    /// The firmware image in QEMU.
+    Qemu,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Run the board's controller step in closed loop with the simulated rig, the emulated
@@ -59,6 +68,20 @@ enum Command {
         /// Print the summary as one JSON object.
         #[arg(long)]
         json: bool,
+        /// The controller: `host` (model-core's, in this process) or `qemu` (the firmware
+        /// image in QEMU, configured over XCP for the set-up, every demand frame compared
+        /// with the host mirror: the summary adds the mismatch count).
+        #[arg(long, value_enum, default_value_t = SimBoard::Host)]
+        board: SimBoard,
+        /// The firmware image for `--board qemu` (its QEMU build); default: the one under
+        /// the build folder (`cargo build -p mil-firmware --target thumbv7em-none-eabihf
+        /// --release --features qemu`).
+        #[arg(long)]
+        elf: Option<PathBuf>,
+        /// Run this many seconds instead of the set-up's `[excitation] duration_s` (QEMU
+        /// steps a few hundred samples a second).
+        #[arg(long)]
+        duration: Option<f64>,
     },
     /// Run the real-time controller step over a road input, open-loop on a rigid rig (the
     /// hubs or body held still). Without SETUP the built-in tyre example runs.
@@ -463,8 +486,14 @@ fn run(cli: Cli) -> Result<()> {
             filter,
             out,
             json,
+            board,
+            elf,
+            duration,
         } => {
-            let config = set_up(setup.as_deref(), filter.as_deref())?.sim()?;
+            let mut config = set_up(setup.as_deref(), filter.as_deref())?.sim()?;
+            if let Some(d) = duration {
+                config.run.duration_s = d;
+            }
             let bar = if json {
                 ProgressBar::hidden()
             } else {
@@ -476,16 +505,51 @@ fn run(cli: Cli) -> Result<()> {
                 )
             };
             bar.set_message("simulating the rig");
-            let result = mil::sim::simulate(&config, |f| bar.set_position((f * 1000.0) as u64))?;
+            let progress = |f: f64| bar.set_position((f * 1000.0) as u64);
+            let (result, qemu) = match board {
+                SimBoard::Host => (mil::sim::simulate(&config, progress)?, None),
+                SimBoard::Qemu => {
+                    let elf = match elf {
+                        Some(e) => e,
+                        None => {
+                            anyhow::Context::with_context(mil_can::find_firmware_elf(), || {
+                                format!(
+                                    "no firmware image found: build it with `{}` or give --elf",
+                                    mil_can::FIRMWARE_BUILD_COMMAND
+                                )
+                            })?
+                        }
+                    };
+                    bar.set_message("the firmware in QEMU on the simulated rig");
+                    let (r, q) = mil::sim::simulate_on_qemu(&config, &elf, progress)?;
+                    (r, Some(q))
+                }
+            };
             bar.finish_and_clear();
             std::fs::create_dir_all(&out)?;
             let csv = out.join("sim.csv");
             result.write_csv(&csv)?;
             let plots = result.write_plots(&out)?;
             if json {
-                outln!("{}", serde_json::to_string(&result.summary)?);
+                let mut value = serde_json::to_value(&result.summary)?;
+                if let (Some(q), Some(map)) = (&qemu, value.as_object_mut()) {
+                    map.insert("qemu".into(), serde_json::to_value(q)?);
+                }
+                outln!("{}", value);
             } else {
                 out!("{}", result.table());
+                if let Some(q) = &qemu {
+                    outln!(
+                        "firmware in QEMU: {} ({} parameter slots written over XCP)",
+                        q.elf,
+                        q.slots_written
+                    );
+                    outln!(
+                        "demand frames:  {} compared with the host mirror, {} mismatches",
+                        q.demand_frames,
+                        q.mismatches
+                    );
+                }
                 outln!("time histories: {}", csv.display());
                 for p in &plots {
                     outln!("plot:           {}", p.display());

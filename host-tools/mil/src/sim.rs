@@ -179,6 +179,123 @@ pub(crate) fn prepare(config: &Config) -> Result<(Validated, Option<Prediction>)
 /// # Errors
 /// An invalid configuration, rig or analysis set-up.
 pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput> {
+    simulate_with(config, progress, |experiment, progress| {
+        Ok(experiment::run(experiment, progress)?)
+    })
+}
+
+/// What the firmware in QEMU did in [`simulate_on_qemu`].
+#[derive(Clone, Debug, Serialize)]
+pub struct QemuSummary {
+    /// The firmware image run.
+    pub elf: String,
+    /// Demand frames compared with the host mirror of the firmware's controller.
+    pub demand_frames: usize,
+    /// Demand frames that differ from the mirror's (any bit of demand or flags): 0 when the
+    /// image does what the host code does.
+    pub mismatches: usize,
+    /// Parameter slots written over XCP to configure the firmware for the set-up.
+    pub slots_written: usize,
+}
+
+/// As [`simulate`], with the firmware image `elf` in QEMU (its QEMU build) in place of the
+/// host's controller: the firmware is configured over XCP with the set-up's board
+/// parameters and sample rate (refused with the bus load figure where the rate needs more
+/// than the bus budget), then driven sample for sample by the same rig; every demand frame
+/// is compared with the host mirror of the firmware's controller.
+///
+/// # Errors
+/// As [`simulate`]; QEMU or the firmware not answering; the firmware refusing the set.
+pub fn simulate_on_qemu(
+    config: &Config,
+    elf: &std::path::Path,
+    progress: impl FnMut(f64),
+) -> Result<(SimOutput, QemuSummary)> {
+    use mil_can::{configure, Qemu, QemuOptions, RemoteBoard};
+    use mil_firmware::calibration::{
+        page_values, reference_words, schedule, Settings, BUS_BIT_PER_S, DEFAULT_SETTINGS,
+    };
+    let image = std::fs::read(elf).with_context(|| format!("cannot read {}", elf.display()))?;
+    let working = mil_a2l::symbols(&image)
+        .map_err(|e| anyhow!("{}: {e}", elf.display()))?
+        .get(mil_a2l::WORKING_SYMBOL)
+        .map(|(address, _)| *address as u32)
+        .with_context(|| {
+            format!(
+                "{} is not the firmware (no {})",
+                elf.display(),
+                mil_a2l::WORKING_SYMBOL
+            )
+        })?;
+    let rate = config.run.sample_rate_hz;
+    if !(rate.fract() == 0.0 && (1.0..=f64::from(u16::MAX)).contains(&rate)) {
+        bail!("run.sample_rate_hz: the board runs at a whole number of Hz, got {rate}");
+    }
+    let settings = Settings {
+        sample_rate_hz: rate as u16,
+        ..DEFAULT_SETTINGS
+    };
+    // The QEMU build's secret: MIL_XCP_SECRET if it was built with one, else the public
+    // test secret it uses without.
+    let secret = match std::env::var(crate::xcp::SECRET_ENV) {
+        Ok(text) => crate::xcp::parse_secret(&text, crate::xcp::SECRET_ENV)?,
+        Err(_) => mil_xcp::mock::TEST_SECRET.to_vec(),
+    };
+    let mut summary = QemuSummary {
+        elf: elf.display().to_string(),
+        demand_frames: 0,
+        mismatches: 0,
+        slots_written: 0,
+    };
+    let output = simulate_with(config, progress, |experiment, progress| {
+        let params = experiment.setting.board_params();
+        if let Err(over) = schedule(&params, &settings).check(BUS_BIT_PER_S) {
+            bail!(
+                "the board refuses this configuration at {rate} Hz: {:.1} % of a 1 Mbit/s bus \
+                 (budget 60 %); it runs at up to {:.0} Hz",
+                100.0 * over.load,
+                over.max_sample_rate_hz
+            );
+        }
+        let target = page_values(&params, &settings).map(f32::to_bits);
+        let (qemu, link) = Qemu::spawn(elf, &QemuOptions::default())
+            .with_context(|| format!("QEMU with {}", elf.display()))?;
+        let mut board = RemoteBoard::new(link).map_err(|e| anyhow!(e))?;
+        let done = configure(
+            board.transport_mut(),
+            working,
+            &secret,
+            &reference_words(),
+            &target,
+        )
+        .map_err(|e| anyhow!("configuring the firmware over XCP: {e}"))?;
+        board
+            .replay(&reference_words(), &done.writes)
+            .map_err(|e| anyhow!(e))?;
+        let outcome = experiment::run_on(experiment, &mut board, progress)?;
+        summary.demand_frames = board.samples().len();
+        summary.mismatches = board.mismatches();
+        summary.slots_written = done.writes.len();
+        let mut link = board.into_transport();
+        link.close().context("closing the SLCAN channel")?;
+        let out = qemu
+            .finish(std::time::Duration::from_secs(20))
+            .context("QEMU did not exit")?;
+        if !out.status.is_some_and(|s| s.success()) {
+            bail!("QEMU exited with {:?}: {}", out.status, out.stderr.trim());
+        }
+        Ok(outcome)
+    })?;
+    Ok((output, summary))
+}
+
+/// [`simulate`] with the experiment run by `run`.
+fn simulate_with(
+    config: &Config,
+    progress: impl FnMut(f64),
+    run: impl FnOnce(&Experiment, &mut dyn FnMut(f64)) -> Result<Outcome>,
+) -> Result<SimOutput> {
+    let mut progress = progress;
     let (validated, prediction) = prepare(config)?;
     let fs = config.run.sample_rate_hz;
     let step = config.rig.internal_step_s;
@@ -220,7 +337,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
         histories,
         links,
         filter_sections,
-    } = experiment::run(&experiment, progress)?;
+    } = run(&experiment, &mut progress)?;
     let elapsed = started.elapsed().as_secs_f64().max(1e-9);
     let road_names = experiment.setting.input_names();
     let channel_names = experiment.setting.channel_names();
@@ -708,7 +825,8 @@ impl SimOutput {
             mil_plots::xy_svg(&path, &plot)?;
             files.push(path);
         }
-        if let Some(c) = &self.curves {
+        // A run too short for the comparison band gives no estimate: no response plot.
+        if let Some(c) = self.curves.as_ref().filter(|c| !c.frequency_hz.is_empty()) {
             let mut plot = BodePlot::new(
                 format!("Response from the run: {}", c.name),
                 format!("|{}| [{}]", c.name, c.unit),

@@ -5,7 +5,9 @@
 //! here; tests build it directly.
 
 use crate::actuator::ForceActuator;
-use crate::harness::{self, HarnessError, Histories, Instrumentation, LinkStatistics, RigPart};
+use crate::harness::{
+    self, Board, HarnessError, Histories, Instrumentation, LinkStatistics, RigPart,
+};
 use crate::rigs::{
     aero_input_varying_speed, aero_static_demand, half_car_part_varying_speed, quarter_car_part,
     substructure_input, substructure_part, IdealAero,
@@ -108,6 +110,36 @@ impl Setting {
         }
     }
 
+    /// The board's parameter set that runs this setting's controller (see
+    /// `model_core::board`): what a board is configured with to run the experiment.
+    pub fn board_params(&self) -> model_core::BoardParams {
+        use model_core::BoardParams;
+        match self {
+            Self::QuarterCars { board, .. } => BoardParams::of_tyres(board.params()),
+            Self::HalfCar { board, .. } => BoardParams::of_aero(board.params()),
+            Self::Structure { board, .. } => match board {
+                PreparedSubstructure::One(p) => BoardParams::of_substructure(p.params()),
+                PreparedSubstructure::Two(p) => BoardParams::of_substructure(p.params()),
+                PreparedSubstructure::Three(p) => BoardParams::of_substructure(p.params()),
+                PreparedSubstructure::Four(p) => BoardParams::of_substructure(p.params()),
+            },
+        }
+    }
+
+    /// The sample period the setting's controller was prepared for (s).
+    pub fn dt(&self) -> f32 {
+        match self {
+            Self::QuarterCars { board, .. } => board.dt(),
+            Self::HalfCar { board, .. } => board.dt(),
+            Self::Structure { board, .. } => match board {
+                PreparedSubstructure::One(p) => p.dt(),
+                PreparedSubstructure::Two(p) => p.dt(),
+                PreparedSubstructure::Three(p) => p.dt(),
+                PreparedSubstructure::Four(p) => p.dt(),
+            },
+        }
+    }
+
     /// The inputs' names, in the order [`Experiment::inputs`] holds them.
     pub fn input_names(&self) -> Vec<String> {
         match self {
@@ -165,6 +197,49 @@ pub enum ExperimentError {
 /// An invalid specimen, a board model the rig cannot emulate, invalid sensors or links, or
 /// inputs that do not fit the setting.
 pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome, ExperimentError> {
+    drive(experiment, None::<&mut NoBoard>, progress)
+}
+
+/// A board of every channel count the settings have (1 to 4): what [`run_on`] drives.
+pub trait AnyBoard: Board<1> + Board<2> + Board<3> + Board<4> {}
+impl<B: Board<1> + Board<2> + Board<3> + Board<4>> AnyBoard for B {}
+
+/// As [`run`], with `board` in place of the host's controller: a board already configured
+/// with [`Setting::board_params`] (e.g. the firmware in QEMU behind `mil-can`'s
+/// `RemoteBoard`, which checks every demand against its own host mirror).
+///
+/// # Errors
+/// As [`run`], and the board's own errors (a transport error, a timeout).
+pub fn run_on<B: AnyBoard>(
+    experiment: &Experiment,
+    board: &mut B,
+    progress: impl FnMut(f64),
+) -> Result<Outcome, ExperimentError> {
+    drive(experiment, Some(board), progress)
+}
+
+/// No board: [`run`] builds the host's controller.
+enum NoBoard {}
+
+impl<const CH: usize> Board<CH> for NoBoard {
+    fn start(&mut self) -> Result<(), String> {
+        match *self {}
+    }
+
+    fn step(&mut self, _: &model_core::ModelInput<CH>) -> Result<[f32; CH], String> {
+        match *self {}
+    }
+
+    fn status(&self) -> model_core::Status {
+        match *self {}
+    }
+}
+
+fn drive<B: AnyBoard>(
+    experiment: &Experiment,
+    mut remote: Option<&mut B>,
+    progress: impl FnMut(f64),
+) -> Result<Outcome, ExperimentError> {
     let Experiment {
         setting,
         actuator,
@@ -196,6 +271,7 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
                 .collect::<Result<Vec<RigPart>, _>>()?;
             on_board(
                 board,
+                remote.as_deref_mut(),
                 &mut parts,
                 instrumentation,
                 *fs,
@@ -223,6 +299,7 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
             )?];
             on_board(
                 board,
+                remote.as_deref_mut(),
                 &mut parts,
                 instrumentation,
                 *fs,
@@ -238,6 +315,7 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
             specimen_inputs,
         } => {
             let rig = StructureRig {
+                remote,
                 specimen,
                 specimen_inputs,
                 actuator: *actuator,
@@ -247,17 +325,18 @@ pub fn run(experiment: &Experiment, progress: impl FnMut(f64)) -> Result<Outcome
                 inputs,
             };
             match board {
-                PreparedSubstructure::One(p) => structure(p, &rig, progress),
-                PreparedSubstructure::Two(p) => structure(p, &rig, progress),
-                PreparedSubstructure::Three(p) => structure(p, &rig, progress),
-                PreparedSubstructure::Four(p) => structure(p, &rig, progress),
+                PreparedSubstructure::One(p) => structure(p, rig, progress),
+                PreparedSubstructure::Two(p) => structure(p, rig, progress),
+                PreparedSubstructure::Three(p) => structure(p, rig, progress),
+                PreparedSubstructure::Four(p) => structure(p, rig, progress),
             }
         }
     }
 }
 
 /// A structure run's rig, whatever the board's number of channels.
-struct StructureRig<'a> {
+struct StructureRig<'a, B> {
+    remote: Option<&'a mut B>,
     specimen: &'a Specimen,
     specimen_inputs: &'a [usize],
     actuator: ForceActuator,
@@ -268,11 +347,14 @@ struct StructureRig<'a> {
 }
 
 /// A structure on `CH` actuators with model-core's substructure model on the board.
-fn structure<const CH: usize>(
+fn structure<B: AnyBoard, const CH: usize>(
     board: &PreparedParams<SubstructureModel<CH>, CH>,
-    rig: &StructureRig<'_>,
+    rig: StructureRig<'_, B>,
     progress: impl FnMut(f64),
-) -> Result<Outcome, ExperimentError> {
+) -> Result<Outcome, ExperimentError>
+where
+    B: Board<CH>,
+{
     let model_roads: [usize; CH] = std::array::from_fn(|c| c);
     let mut parts = vec![substructure_part(
         rig.specimen.clone(),
@@ -285,6 +367,7 @@ fn structure<const CH: usize>(
     )?];
     on_board(
         board,
+        rig.remote,
         &mut parts,
         rig.instrumentation,
         rig.fs,
@@ -297,8 +380,9 @@ fn structure<const CH: usize>(
 
 /// Starts model-core's controller with `board` and runs it against `parts`.
 #[allow(clippy::too_many_arguments)]
-fn on_board<M: model_core::Model<CH>, const CH: usize>(
+fn on_board<M: model_core::Model<CH>, B: Board<CH>, const CH: usize>(
     board: &PreparedParams<M, CH>,
+    remote: Option<&mut B>,
     parts: &mut [RigPart],
     instrumentation: &Instrumentation,
     fs: f64,
@@ -315,17 +399,28 @@ where
         .filter
         .first()
         .map_or(0, |f| f.active().len());
-    let mut controller = Controller::new(board.clone());
-    let (histories, links) = harness::run(
-        &mut controller,
-        parts,
-        instrumentation,
-        fs,
-        inputs,
-        initial_demand,
-        input,
-        progress,
-    )?;
+    let (histories, links) = match remote {
+        Some(remote) => harness::run(
+            remote,
+            parts,
+            instrumentation,
+            fs,
+            inputs,
+            initial_demand,
+            input,
+            progress,
+        )?,
+        None => harness::run(
+            &mut Controller::new(board.clone()),
+            parts,
+            instrumentation,
+            fs,
+            inputs,
+            initial_demand,
+            input,
+            progress,
+        )?,
+    };
     Ok(Outcome {
         histories,
         links,
