@@ -347,14 +347,11 @@ struct StructureRig<'a, B> {
 }
 
 /// A structure on `CH` actuators with model-core's substructure model on the board.
-fn structure<B: AnyBoard, const CH: usize>(
+fn structure<B: Board<CH>, const CH: usize>(
     board: &PreparedParams<SubstructureModel<CH>, CH>,
     rig: StructureRig<'_, B>,
     progress: impl FnMut(f64),
-) -> Result<Outcome, ExperimentError>
-where
-    B: Board<CH>,
-{
+) -> Result<Outcome, ExperimentError> {
     let model_roads: [usize; CH] = std::array::from_fn(|c| c);
     let mut parts = vec![substructure_part(
         rig.specimen.clone(),
