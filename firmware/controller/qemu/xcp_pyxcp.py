@@ -87,6 +87,7 @@ ERR_ACCESS_DENIED = 0x24
 ERR_ACCESS_LOCKED = 0x25
 ERR_SEQUENCE = 0x29
 ERR_GENERIC = 0x31
+ERR_RES_TEMP_NOT_ACCESSIBLE = 0x33
 ERR_NAMES = {
     ERR_SEQUENCE: "ERR_SEQUENCE",
     ERR_OUT_OF_RANGE: "ERR_OUT_OF_RANGE",
@@ -94,10 +95,10 @@ ERR_NAMES = {
     ERR_ACCESS_DENIED: "ERR_ACCESS_DENIED",
     ERR_ACCESS_LOCKED: "ERR_ACCESS_LOCKED",
     ERR_GENERIC: "ERR_GENERIC",
-    0x33: "ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE",
+    ERR_RES_TEMP_NOT_ACCESSIBLE: "ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE",
 }
 # CommandAck codes of refused calibration changes (`calibration_last_rejection`).
-NOT_FINITE, OUT_OF_RANGE, INCONSISTENT = 129, 130, 132
+NOT_FINITE, OUT_OF_RANGE, INCONSISTENT, WRONG_MODE = 129, 130, 132, 145
 # Resources (GET_SEED).
 RES_CALPAG, RES_DAQ = 0x01, 0x04
 
@@ -687,8 +688,8 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
 
     # 4. Read the page, write stiffness and damping, see the stiffness in the demands.
     x.setMta(cal_start)
-    page = bytes(x.upload(cal_len))
-    check(len(page) == cal_len, f"UPLOAD of the calibration page: {len(page)} of {cal_len} bytes")
+    page = bytes(x.fetch(cal_len))
+    check(len(page) == cal_len, f"UPLOAD of the calibration page (pyxcp fetch: UPLOADs of up to 255 bytes, slave block mode): {len(page)} of {cal_len} bytes")
     values = {}
     outside = []
     for name, c in chars.items():
@@ -765,6 +766,10 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
          f32_bytes(2 * kmax), ERR_OUT_OF_RANGE, OUT_OF_RANGE),
         (f"limits_demand_min_0 {values['limits_demand_max_0'] + 1000:g} above limits_demand_max_0 {values['limits_demand_max_0']:g}", "limits_demand_min_0",
          chars["limits_demand_min_0"]["address"], f32_bytes(values["limits_demand_max_0"] + 1000), ERR_GENERIC, INCONSISTENT),
+        # A valid other configuration (the tyre on two hubs) while the controller runs: the
+        # model kind, channel count and sample rate change only while it is Idle.
+        ("model_channels 2 while running (another configuration only while Idle)", "model_channels",
+         chars["model_channels"]["address"], f32_bytes(2.0), ERR_RES_TEMP_NOT_ACCESSIBLE, WRONG_MODE),
         (f"4 bytes at 0x{cal_start + cal_len:08X} (just past the calibration page)", None, cal_start + cal_len,
          f32_bytes(1.0), ERR_ACCESS_DENIED, None),
         (f"4 bytes at 0x{cal_start + cal_len - 2:08X} (across the page's end)", None, cal_start + cal_len - 2,
@@ -778,7 +783,7 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
         page_before = None
         if name is None:
             x.setMta(cal_start)
-            page_before = bytes(x.upload(cal_len))
+            page_before = bytes(x.fetch(cal_len))
         code, _, _ = download(address, data)
         check(code == want, f"refused: {what}: {err_name(code)}, expected {err_name(want)}")
         if name:
@@ -786,7 +791,7 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
             check(v == before, f"  {name} unchanged: {v:g} (before {before:g})")
         else:
             x.setMta(cal_start)
-            page_after = bytes(x.upload(cal_len))
+            page_after = bytes(x.fetch(cal_len))
             check(page_after == page_before, "  calibration page unchanged")
         rej = read_u32("calibration_last_rejection")
         if reason is not None:
@@ -834,10 +839,10 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
     check(code is None, f"COPY_CAL_PAGE reference -> working: {err_name(code)}")
     check_switch(lock, i0 - 5, t0, t1, running, base, "defaults restored by the copy")
     x.setMta(cal_start)
-    page = bytes(x.upload(cal_len))
+    page = bytes(x.fetch(cal_len))
     x.setCalPage(0x02, 0, 1)
     x.setMta(cal_start)
-    ref = bytes(x.upload(cal_len))
+    ref = bytes(x.fetch(cal_len))
     x.setCalPage(0x02, 0, 0)
     check(page == ref, "working page equals the reference page after the copy"
           + ("" if page == ref else f": {page.hex()} vs {ref.hex()}"))
