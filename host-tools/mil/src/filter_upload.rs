@@ -1,5 +1,6 @@
 //! `mil filter upload`: the command filter of a filter file (`mil design-filter`) onto the
-//! board, as ONE block download so that the board validates the whole filter at once.
+//! board, each channel's filter as ONE block download, so that the board validates a
+//! channel's whole filter at once (a channel never runs a half-written cascade).
 //!
 //! The file holds model-core's f32 delta-form sections (`β0 = b0`, `β1 = 2 b0 + b1`,
 //! `β2 = b0 + b1 + b2`, `α1 = 2 + a1`, `α2 = 1 + a1 + a2`), which is what the firmware's
@@ -100,7 +101,8 @@ pub fn plan<'a>(a2l: &'a A2l, path: &Path) -> Result<FilterWrite<'a>> {
 }
 
 /// Checks the sample rate against the board's control step, unlocks CAL/PAG with `secret`
-/// and writes the filter as one change; the changes as read back.
+/// and writes each channel's filter as one change, channel by channel; the changes as read
+/// back.
 ///
 /// # Errors
 /// A sample rate other than the board's, a wrong secret, the board's refusal (nothing
@@ -123,7 +125,16 @@ pub fn upload<T: Transport>(
         }
     }
     master.unlock(resource::CAL_PAG, secret)?;
-    Ok(master.write_items_as_one_change(&filter.items, &filter.values)?)
+    let per_channel = 1 + 5 * filter.slots;
+    let mut changes = Vec::with_capacity(filter.items.len());
+    for (items, values) in filter
+        .items
+        .chunks(per_channel)
+        .zip(filter.values.chunks(per_channel))
+    {
+        changes.extend(master.write_items_as_one_change(items, values)?);
+    }
+    Ok(changes)
 }
 
 /// The coefficients written, one section a line (channel 0's; every channel gets the
@@ -135,11 +146,12 @@ pub fn table(filter: &FilterWrite<'_>, changes: &[Change]) -> String {
     };
     let _ = writeln!(
         t,
-        "filter_sections: {} → {} on each of {} channel(s) (one block of {} parameters at {} Hz)",
+        "filter_sections: {} → {} on each of {} channel(s) (one block of {} parameters a \
+         channel at {} Hz)",
         count.old,
         count.new,
         filter.channels,
-        changes.len(),
+        1 + 5 * filter.slots,
         filter.sample_rate_hz
     );
     let _ = writeln!(

@@ -46,6 +46,16 @@ fn port(b: &Board) -> String {
     format!("tcp:{}", b.addr())
 }
 
+/// The page slot of the parameter named `name` (the A2L's name).
+fn at(name: &str) -> usize {
+    mil_firmware::calibration::slot_named(name).unwrap_or_else(|| panic!("no slot {name}"))
+}
+
+/// What the mock's working page holds in slot `slot` before any write: `slot × 0.5`.
+fn initial(slot: usize) -> f32 {
+    slot as f32 * 0.5
+}
+
 fn working_f32(b: &Board, slot: usize) -> f32 {
     b.with_board(|s| {
         let w = s.target.working();
@@ -94,7 +104,15 @@ fn param_list_prints_the_a2l_table_without_a_board() {
         "{out}"
     );
     let position = line("position");
-    assert_eq!(&position[1..5], ["m", "-1", "1", "0x20001000"]);
+    assert_eq!(
+        &position[1..5],
+        [
+            "m",
+            "-1",
+            "1",
+            &format!("0x{:08x}", mil_xcp::mock::MEAS_START)
+        ]
+    );
 }
 
 #[test]
@@ -122,7 +140,7 @@ fn param_get_and_set_against_the_board() {
         &[
             "param",
             "get",
-            "tyre_damping",
+            "tyre_damping_0",
             "watchdog_limit",
             "mode",
             "--a2l",
@@ -136,7 +154,11 @@ fn param_get_and_set_against_the_board() {
     // The mock's working page holds i * 0.5 in slot i; the measurement block byte i = i.
     assert_eq!(
         stdout(&o),
-        "tyre_damping   = 0.5 N*s/m\nwatchdog_limit = 16 -\nmode           = 252579084 -\n"
+        format!(
+            "tyre_damping_0 = {} N*s/m\nwatchdog_limit = {} -\nmode           = 252579084 -\n",
+            initial(at("tyre_damping_0")),
+            initial(at("watchdog_limit"))
+        )
     );
 
     let secret_file = dir.path().join("secret");
@@ -145,8 +167,8 @@ fn param_get_and_set_against_the_board() {
         &[
             "param",
             "set",
-            "tyre_damping=800",
-            "tyre_stiffness=2.5e5",
+            "tyre_damping_0=800",
+            "tyre_stiffness_0=2.5e5",
             "--a2l",
             text(&a2l),
             "--port",
@@ -159,17 +181,21 @@ fn param_get_and_set_against_the_board() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         stdout(&o),
-        "tyre_damping  : 0.5 → 800 N*s/m\ntyre_stiffness: 0 → 250000 N/m\n"
+        format!(
+            "tyre_damping_0  : {} → 800 N*s/m\ntyre_stiffness_0: {} → 250000 N/m\n",
+            initial(at("tyre_damping_0")),
+            initial(at("tyre_stiffness_0"))
+        )
     );
-    assert_eq!(working_f32(&b, 0), 2.5e5);
-    assert_eq!(working_f32(&b, 1), 800.0);
+    assert_eq!(working_f32(&b, at("tyre_stiffness_0")), 2.5e5);
+    assert_eq!(working_f32(&b, at("tyre_damping_0")), 800.0);
 
     // Outside the A2L limits: refused before the board is contacted.
     let o = mil(
         &[
             "param",
             "set",
-            "tyre_damping=1e12",
+            "tyre_damping_0=1e12",
             "--a2l",
             text(&a2l),
             "--port",
@@ -186,7 +212,7 @@ fn param_get_and_set_against_the_board() {
         &[
             "param",
             "set",
-            "tyre_dampng=1",
+            "tyre_dampng_0=1",
             "--a2l",
             text(&a2l),
             "--port",
@@ -194,13 +220,13 @@ fn param_get_and_set_against_the_board() {
         ],
         Some(TEST_SECRET),
     ));
-    assert!(e.contains("did you mean `tyre_damping`"), "{e}");
+    assert!(e.contains("did you mean `tyre_damping_0`"), "{e}");
     // A wrong secret, and none at all.
     let e = one_line_error(&mil(
         &[
             "param",
             "set",
-            "tyre_damping=700",
+            "tyre_damping_0=700",
             "--a2l",
             text(&a2l),
             "--port",
@@ -213,7 +239,7 @@ fn param_get_and_set_against_the_board() {
         &[
             "param",
             "set",
-            "tyre_damping=700",
+            "tyre_damping_0=700",
             "--a2l",
             text(&a2l),
             "--port",
@@ -225,7 +251,7 @@ fn param_get_and_set_against_the_board() {
         e.contains("--secret-file") && e.contains("MIL_XCP_SECRET"),
         "{e}"
     );
-    assert_eq!(working_f32(&b, 1), 800.0);
+    assert_eq!(working_f32(&b, at("tyre_damping_0")), 800.0);
 }
 
 #[test]
@@ -328,7 +354,7 @@ fn filter_file(dir: &Path, sample_rate_hz: f64) -> PathBuf {
 }
 
 #[test]
-fn filter_upload_writes_the_whole_filter_as_one_change() {
+fn filter_upload_writes_each_channels_filter_as_one_change() {
     let dir = tempfile::tempdir().unwrap();
     let a2l = a2l_fixture(dir.path());
     let b = board();
@@ -349,26 +375,41 @@ fn filter_upload_writes_the_whole_filter_as_one_change() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
+    let channels = model_core::board::BOARD_CHANNELS;
     assert!(
-        out.starts_with("filter_sections: 5 → 2 (one block of 21 parameters at 2000 Hz)"),
+        out.starts_with(&format!(
+            "filter_sections: {} → 2 on each of {channels} channel(s) (one block of 21 \
+             parameters a channel at 2000 Hz)",
+            initial(at("filter_sections_0"))
+        )),
         "{out}"
     );
     assert!(out.contains("(pass-through)"), "{out}");
-    assert_eq!(b.with_board(|s| s.target.writes), writes + 1, "one change");
+    assert_eq!(
+        b.with_board(|s| s.target.writes),
+        writes + channels as u32,
+        "one change a channel"
+    );
     let (file, cascade) = FilterFile::read(&filter).unwrap();
     assert_eq!(file.sections.len(), 2);
-    assert_eq!(working_f32(&b, 10), 2.0);
-    for (k, s) in cascade.section.iter().enumerate() {
-        let expected = [s.beta0, s.beta1, s.beta2, s.alpha1, s.alpha2];
-        for (c, e) in expected.iter().enumerate() {
-            assert_eq!(
-                working_f32(&b, 11 + 5 * k + c),
-                *e,
-                "section {k} coefficient {c}"
-            );
+    for ch in 0..channels {
+        assert_eq!(working_f32(&b, at(&format!("filter_sections_{ch}"))), 2.0);
+        for (k, s) in cascade.section.iter().enumerate() {
+            let expected = [s.beta0, s.beta1, s.beta2, s.alpha1, s.alpha2];
+            for (c, e) in expected.iter().enumerate() {
+                assert_eq!(
+                    working_f32(&b, at(&format!("filter_beta0_{ch}_{k}")) + c),
+                    *e,
+                    "channel {ch} section {k} coefficient {c}"
+                );
+            }
         }
+        assert_eq!(
+            working_f32(&b, at(&format!("filter_beta0_{ch}_3"))),
+            1.0,
+            "section 3 is the pass-through"
+        );
     }
-    assert_eq!(working_f32(&b, 26), 1.0, "section 3 is the pass-through");
 
     // A coefficient outside its A2L limits is refused before the board is contacted.
     let loud = dir.path().join("loud.json");
@@ -395,7 +436,7 @@ fn filter_upload_writes_the_whole_filter_as_one_change() {
         Some(TEST_SECRET),
     ));
     assert!(
-        e.contains("filter_s0_beta0 = 2000: outside the A2L limits"),
+        e.contains("filter_beta0_0_0 = 2000: outside the A2L limits"),
         "{e}"
     );
 
@@ -417,7 +458,7 @@ fn filter_upload_writes_the_whole_filter_as_one_change() {
         e.contains("designed for 1000 Hz") && e.contains("2000 Hz"),
         "{e}"
     );
-    assert_eq!(b.with_board(|s| s.target.writes), writes + 1);
+    assert_eq!(b.with_board(|s| s.target.writes), writes + channels as u32);
 }
 
 #[test]
@@ -433,7 +474,7 @@ fn an_unreachable_port_is_a_one_line_error() {
         &[
             "param",
             "get",
-            "tyre_damping",
+            "tyre_damping_0",
             "--a2l",
             text(&a2l),
             "--port",
@@ -449,7 +490,7 @@ fn an_unreachable_port_is_a_one_line_error() {
         &[
             "param",
             "get",
-            "tyre_damping",
+            "tyre_damping_0",
             "--a2l",
             text(&a2l),
             "--port",

@@ -603,10 +603,22 @@ pub fn paper_aero_part(internal_step_s: f64) -> Result<RigPart, SpecimenError> {
 /// road springs and dampers into the diagonal the same way), so that the numerical masses
 /// obey `M ẍ_n = G`, model-core's equation with the exact (not estimated) interface velocity.
 /// The law is affine ([`IdealInterface::affine`]), so a linear specimen takes exact steps.
+///
+/// The substructure's nonlinear elements act on the numerical DOFs with their whole laws
+/// (`F_e(x_e, v_e)` at the element's compression `x_e = a·x_n + b·w` and its rate, as
+/// `−a F_e`; the law evaluated as the board evaluates it, model-core's `ElementLaw`, in
+/// `f32`): with any element the law is nonlinear and [`IdealInterface::affine`] is `None`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IdealSubstructure {
-    /// The affine law over the attachments and road inputs described above.
+    /// The affine law over the attachments and road inputs described above (the network
+    /// without the elements).
     pub law: AffineInterface,
+    /// The elements: coefficients `a` per numerical DOF, `b` per model road input, law.
+    elements: Vec<(Vec<f64>, Vec<f64>, model_core::ElementLaw)>,
+    /// Attachments before the numerical DOFs (the channels), and road inputs before the
+    /// model's (the physical specimen's).
+    channels: usize,
+    specimen_inputs: usize,
 }
 
 impl IdealSubstructure {
@@ -670,6 +682,17 @@ impl IdealSubstructure {
             velocity[d][d] -= damping;
             velocity[d][c] += damping;
         }
+        let elements = params
+            .used_elements()
+            .iter()
+            .map(|e| {
+                (
+                    e.dof_coefficients.iter().take(n).map(|a| f(*a)).collect(),
+                    e.road_coefficients.iter().map(|b| f(*b)).collect(),
+                    e.law,
+                )
+            })
+            .collect();
         Ok(Self {
             law: AffineInterface {
                 offset_n: vec![0.0; rows],
@@ -679,13 +702,16 @@ impl IdealSubstructure {
                 road_rate_n_s_per_m: road_rate,
                 lower_bound_n: vec![f64::NEG_INFINITY; rows],
             },
+            elements,
+            channels: CH,
+            specimen_inputs,
         })
     }
 }
 
 impl IdealInterface for IdealSubstructure {
     fn affine(&self) -> Option<AffineInterface> {
-        Some(self.law.clone())
+        self.elements.is_empty().then(|| self.law.clone())
     }
 
     fn forces(
@@ -704,6 +730,20 @@ impl IdealInterface for IdealSubstructure {
                 + dot(&a.velocity_n_s_per_m[j], y_dot)
                 + dot(&a.road_n_per_m[j], road)
                 + dot(&a.road_rate_n_s_per_m[j], road_rate);
+        }
+        let tail = |v: &[f64], from: usize| v.get(from..).unwrap_or(&[]).to_vec();
+        let (x_n, v_n) = (tail(y, self.channels), tail(y_dot, self.channels));
+        let (w, w_dot) = (
+            tail(road, self.specimen_inputs),
+            tail(road_rate, self.specimen_inputs),
+        );
+        for (a_e, b_e, law) in &self.elements {
+            let x = dot(a_e, &x_n) + dot(b_e, &w);
+            let v = dot(a_e, &v_n) + dot(b_e, &w_dot);
+            let force = f64::from(law.force(x as f32, v as f32));
+            for (out, a) in forces.iter_mut().skip(self.channels).zip(a_e) {
+                *out -= a * force;
+            }
         }
     }
 }
@@ -972,6 +1012,56 @@ mod tests {
         other.causality = Causality::PrescribedMotion as u32;
         let e = IdealSubstructure::new(&other, 0).unwrap_err();
         assert!(e.0.contains("impedance"), "{e}");
+    }
+
+    /// The substructure's nonlinear elements act in the emulated system: the 2-DOF
+    /// example's road spring and damper written as an element (compression `z_n − x_n`) with
+    /// a linear law gives the network's forces, term by term, and the law is then not
+    /// affine; with a bump stop 1 mm from rest, the stop's force appears exactly beyond it.
+    #[test]
+    fn ideal_substructure_carries_the_elements() {
+        let network = IdealSubstructure::new(&two_dof_numerical(), 1).unwrap();
+        let mut as_element = two_dof_numerical();
+        as_element.ground_stiffness[0][0] = 0.0;
+        as_element.ground_damping[0][0] = 0.0;
+        as_element.element_count = 1;
+        as_element.elements[0] = model_core::SubstructureElement {
+            dof_coefficients: [-1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            road_coefficients: [1.0],
+            law: model_core::ElementLaw::linear(4.0e4, 20.0),
+        };
+        let element = IdealSubstructure::new(&as_element, 1).unwrap();
+        assert!(network.affine().is_some() && element.affine().is_none());
+        let mut worst: f64 = 0.0;
+        for (y, y_dot, w, w_dot) in [
+            ([0.002, -0.001], [0.1, 0.3], [0.5, 0.004], [7.0, -0.2]),
+            ([-0.01, 0.003], [-0.2, 0.05], [0.0, -0.002], [0.0, 0.4]),
+        ] {
+            let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
+            network.forces(&y, &y_dot, &w, &w_dot, &mut a);
+            element.forces(&y, &y_dot, &w, &w_dot, &mut b);
+            for (a, b) in a.iter().zip(b) {
+                // The element's law is the board's, in f32.
+                worst = worst.max((a - b).abs() / a.abs().max(1.0));
+            }
+        }
+        assert!(worst < 1e-6, "{worst:e}");
+        // A bump stop: 1e5 N/m beyond 1 mm of compression, nothing before.
+        as_element.elements[0].law.bump_gap = 1e-3;
+        as_element.elements[0].law.bump_stiffness = 1e5;
+        let stop = IdealSubstructure::new(&as_element, 1).unwrap();
+        let force_on_mass = |law: &IdealSubstructure, x_n: f64| {
+            let mut f = [0.0; 2];
+            law.forces(&[0.0, x_n], &[0.0, 0.0], &[0.0, 0.0], &[0.0, 0.0], &mut f);
+            f[1]
+        };
+        for x_n in [-0.5e-3, 0.5e-3] {
+            let d = force_on_mass(&stop, x_n) - force_on_mass(&element, x_n);
+            assert!(d.abs() < 1e-6, "{x_n}: {d}");
+        }
+        // 2 mm of compression (the mass 2 mm down): 1 mm into the stop pushes it up 100 N more.
+        let d = force_on_mass(&stop, -2e-3) - force_on_mass(&element, -2e-3);
+        assert!((d - 100.0).abs() < 1e-3, "{d}");
     }
 
     /// The 2-DOF rig starts and stays at rest (the spring's preload carries the weight, the
