@@ -140,7 +140,7 @@ fn mil_param_and_daq_record_against_the_firmware() {
 
     // Read: the running default.
     let o = run(
-        &["param", "get", "tyre_stiffness", "tyre_damping"],
+        &["param", "get", "tyre_stiffness_0", "tyre_damping_0"],
         TEST_SECRET,
     );
     assert!(o.status.success(), "{}", text(&o));
@@ -148,7 +148,7 @@ fn mil_param_and_daq_record_against_the_firmware() {
 
     // A wrong secret: one clear line, nothing changes.
     let o = run(
-        &["param", "set", "tyre_stiffness=300000"],
+        &["param", "set", "tyre_stiffness_0=300000"],
         b"not-the-secret-of-this-build",
     );
     assert!(!o.status.success());
@@ -158,7 +158,7 @@ fn mil_param_and_daq_record_against_the_firmware() {
 
     // A write reaches the running model: +50 N at 1 mm for 2.5e5 → 3.0e5 N/m.
     let before = last_demand(&demands);
-    let o = run(&["param", "set", "tyre_stiffness=300000"], TEST_SECRET);
+    let o = run(&["param", "set", "tyre_stiffness_0=300000"], TEST_SECRET);
     assert!(o.status.success(), "{}", text(&o));
     let after = demand_after(&demands, 300);
     assert!(
@@ -169,9 +169,9 @@ fn mil_param_and_daq_record_against_the_firmware() {
 
     // Refusals: by the tool (outside the A2L limits, before sending) and by the board
     // (inconsistent set); the model is unchanged.
-    let o = run(&["param", "set", "tyre_stiffness=1e12"], TEST_SECRET);
+    let o = run(&["param", "set", "tyre_stiffness_0=1e12"], TEST_SECRET);
     assert!(!o.status.success(), "{}", text(&o));
-    let o = run(&["param", "set", "demand_min=20000"], TEST_SECRET);
+    let o = run(&["param", "set", "limits_demand_min_0=20000"], TEST_SECRET);
     assert!(!o.status.success());
     assert!(text(&o).contains("ERR_GENERIC"), "{}", text(&o));
     assert_eq!(last_demand(&demands), after);
@@ -252,7 +252,7 @@ fn mil_param_and_daq_record_against_the_firmware() {
             "get",
             "calibration_stores",
             "calibration_store_error",
-            "tyre_stiffness",
+            "tyre_stiffness_0",
         ],
         TEST_SECRET,
     );
