@@ -55,23 +55,16 @@ fn check(summary: &serde_json::Value, channels: u64, samples: u64, what: &str) {
     );
 }
 
-/// A copy of example `name` in `dir` with `edit` applied, its file references made
-/// absolute (they resolve against the set-up's folder).
-fn edited(name: &str, dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
-    let mut text = std::fs::read_to_string(examples().join(name)).unwrap();
-    for file in [
-        "tyre-physical.toml",
-        "two-dof-filter.json",
-        "two-dof-numerical.toml",
-        "two-dof-nonlinear-numerical.toml",
-        "two-dof-physical.toml",
-    ] {
-        let quoted = format!("\"{file}\"");
-        let absolute = format!("{:?}", examples().join(file).display().to_string());
-        text = text.replace(&quoted, &absolute);
-    }
-    let path = dir.join(name);
-    std::fs::write(&path, edit(text)).unwrap();
+/// The tyre example at `rate` Hz, written into `dir` (its structure file referenced by its
+/// absolute path: file references resolve against the set-up's folder).
+fn tyre_at(rate: f64, dir: &Path) -> PathBuf {
+    let physical = format!("{:?}", examples().join("tyre-physical.toml").display().to_string());
+    let text = std::fs::read_to_string(examples().join("tyre.toml"))
+        .unwrap()
+        .replace("\"tyre-physical.toml\"", &physical)
+        .replace("sample_rate_hz = 2000.0", &format!("sample_rate_hz = {rate:.1}"));
+    let path = dir.join("tyre.toml");
+    std::fs::write(&path, text).unwrap();
     path
 }
 
@@ -90,32 +83,13 @@ fn every_configuration_runs_on_the_firmware_as_on_the_host() {
         refused.contains("at 2000 Hz") && refused.contains("% of a 1 Mbit/s bus"),
         "{refused}"
     );
-    let tyre_1k = edited("tyre.toml", dir.path(), |t| {
-        t.replace("sample_rate_hz = 2000.0", "sample_rate_hz = 1000.0")
-    });
+    let tyre_1k = tyre_at(1000.0, dir.path());
     let tyre = sim_qemu(&tyre_1k, 0.6, &dir.path().join("tyre1k"))
         .unwrap_or_else(|e| panic!("tyre x4: {e}"));
     check(&tyre, 4, 600, "tyre x4 at 1 kHz");
 
     // The 2-DOF example with its numerical suspension nonlinear.
-    let nonlinear = edited("two-dof.toml", dir.path(), |t| {
-        t.replace(
-            &format!(
-                "{:?}",
-                examples()
-                    .join("two-dof-numerical.toml")
-                    .display()
-                    .to_string()
-            ),
-            &format!(
-                "{:?}",
-                examples()
-                    .join("two-dof-nonlinear-numerical.toml")
-                    .display()
-                    .to_string()
-            ),
-        )
-    });
+    let nonlinear = examples().join("two-dof-nonlinear.toml");
     let sub = sim_qemu(&nonlinear, 0.6, &dir.path().join("nonlinear"))
         .unwrap_or_else(|e| panic!("nonlinear substructure: {e}"));
     check(&sub, 1, 1200, "substructure with nonlinear elements");

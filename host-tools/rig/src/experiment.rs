@@ -218,6 +218,35 @@ pub fn run_on<B: AnyBoard>(
     drive(experiment, Some(board), progress)
 }
 
+/// The board the harness drives: the caller's, or the host's own controller.
+enum Driven<'a, B, C> {
+    Remote(&'a mut B),
+    Host(C),
+}
+
+impl<B: Board<CH>, C: Board<CH>, const CH: usize> Board<CH> for Driven<'_, B, C> {
+    fn start(&mut self) -> Result<(), String> {
+        match self {
+            Self::Remote(b) => b.start(),
+            Self::Host(c) => c.start(),
+        }
+    }
+
+    fn step(&mut self, input: &model_core::ModelInput<CH>) -> Result<[f32; CH], String> {
+        match self {
+            Self::Remote(b) => b.step(input),
+            Self::Host(c) => c.step(input),
+        }
+    }
+
+    fn status(&self) -> model_core::Status {
+        match self {
+            Self::Remote(b) => b.status(),
+            Self::Host(c) => c.status(),
+        }
+    }
+}
+
 /// No board: [`run`] builds the host's controller.
 enum NoBoard {}
 
@@ -396,28 +425,20 @@ where
         .filter
         .first()
         .map_or(0, |f| f.active().len());
-    let (histories, links) = match remote {
-        Some(remote) => harness::run(
-            remote,
-            parts,
-            instrumentation,
-            fs,
-            inputs,
-            initial_demand,
-            input,
-            progress,
-        )?,
-        None => harness::run(
-            &mut Controller::new(board.clone()),
-            parts,
-            instrumentation,
-            fs,
-            inputs,
-            initial_demand,
-            input,
-            progress,
-        )?,
+    let mut driven = match remote {
+        Some(remote) => Driven::Remote(remote),
+        None => Driven::Host(Controller::new(board.clone())),
     };
+    let (histories, links) = harness::run(
+        &mut driven,
+        parts,
+        instrumentation,
+        fs,
+        inputs,
+        initial_demand,
+        input,
+        progress,
+    )?;
     Ok(Outcome {
         histories,
         links,
