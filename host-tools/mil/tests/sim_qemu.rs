@@ -58,11 +58,17 @@ fn check(summary: &serde_json::Value, channels: u64, samples: u64, what: &str) {
 /// The tyre example at `rate` Hz, written into `dir` (its structure file referenced by its
 /// absolute path: file references resolve against the set-up's folder).
 fn tyre_at(rate: f64, dir: &Path) -> PathBuf {
-    let physical = format!("{:?}", examples().join("tyre-physical.toml").display().to_string());
+    let physical = format!(
+        "{:?}",
+        examples().join("tyre-physical.toml").display().to_string()
+    );
     let text = std::fs::read_to_string(examples().join("tyre.toml"))
         .unwrap()
         .replace("\"tyre-physical.toml\"", &physical)
-        .replace("sample_rate_hz = 2000.0", &format!("sample_rate_hz = {rate:.1}"));
+        .replace(
+            "sample_rate_hz = 2000.0",
+            &format!("sample_rate_hz = {rate:.1}"),
+        );
     let path = dir.join("tyre.toml");
     std::fs::write(&path, text).unwrap();
     path
