@@ -32,8 +32,13 @@
 //!    an unpaced host outruns the emulated link and the count of dropped DAQ samples would
 //!    measure the host's load, not the firmware. Every DTO must arrive and none be dropped.
 //!
-//! Prints the budget table and exits non-zero if a check failed or a control step took more
-//! than 1000 instructions, with or without DAQ.
+//! 7. Runs every other configuration the board serves, each in its own QEMU (a quarter of N
+//!    samples): the firmware configured over XCP (`mil_can::configure`, the mirror replaying
+//!    the writes), then sinusoidal road, body motion, forces and speed; every demand frame
+//!    compared with the mirror's, the control step's instructions from the firmware's report.
+//!
+//! Prints the budget table and exits non-zero if a check failed or a control step of the
+//! default configuration took more than 1000 instructions, with or without DAQ.
 //!
 //! The instruction figures are deterministic: two runs print the same numbers. The stack
 //! high-water mark is not quite: how deep the receive interrupt finds the lower-priority
@@ -343,6 +348,160 @@ fn lockstep(
     finish(qemu, board.into_transport())
 }
 
+/// A configuration of the board for its own budget run.
+struct Configuration {
+    name: &'static str,
+    params: model_core::BoardParams,
+    rate_hz: u16,
+}
+
+/// The configurations beside the default tyre ×1: the full car's tyres on four hubs and the
+/// aero four-poster at 1 kHz (the rates their buses carry), and a two-channel substructure
+/// with nonlinear elements (a bump stop and a cubic spring) at 2 kHz.
+fn configurations() -> Vec<Configuration> {
+    use model_core::board::ModelKind;
+    use model_core::{AeroParams, Causality, ElementLaw, InterfaceParams, SubstructureElement};
+    let base = mil_firmware::config::default_params();
+    let limits = |min: f32, max: f32| model_core::DemandLimits {
+        min,
+        max,
+        rate: 1.0e7,
+    };
+    let mut tyre4 = base;
+    tyre4.channels = 4;
+    let mut aero = base;
+    aero.kind = ModelKind::Aero as u32;
+    aero.channels = 2;
+    aero.limits = [limits(-20_000.0, 20_000.0); 4];
+    let rest = AeroParams::PAPER.forces(0.0, 0.0, AeroParams::PAPER.reference_speed);
+    aero.safe_demand = [rest[0], rest[1], 0.0, 0.0];
+    let mut sub = base;
+    sub.kind = ModelKind::Substructure as u32;
+    sub.channels = 2;
+    sub.limits = [limits(-5000.0, 5000.0); 4];
+    sub.safe_demand = [0.0; 4];
+    let s = &mut sub.substructure;
+    *s = model_core::SubstructureParams::zeroed(2, Causality::Impedance);
+    for (j, (m, k)) in [(40.0, 4.0e4), (30.0, 3.0e4)].into_iter().enumerate() {
+        s.mass[j][j] = m;
+        s.ground_stiffness[j][j] = k;
+        s.ground_damping[j][j] = 0.005 * k;
+        s.interface[j] = InterfaceParams {
+            dof: j as u32,
+            stiffness: 1.0e4,
+            damping: 50.0,
+        };
+    }
+    s.element_count = 2;
+    s.elements[0] = SubstructureElement {
+        dof_coefficients: [-1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        road_coefficients: [1.0, 0.0, 0.0, 0.0],
+        law: ElementLaw {
+            bump_gap: 1.0e-3,
+            bump_stiffness: 1.0e5,
+            ..ElementLaw::NONE
+        },
+    };
+    s.elements[1] = SubstructureElement {
+        dof_coefficients: [1.0, -1.0, 0.0, 0.0, 0.0, 0.0],
+        road_coefficients: [0.0; 4],
+        law: ElementLaw {
+            cubic_stiffness: 1.0e8,
+            ..ElementLaw::NONE
+        },
+    };
+    vec![
+        Configuration {
+            name: "tyre x4 at 1 kHz (two buses)",
+            params: tyre4,
+            rate_hz: 1000,
+        },
+        Configuration {
+            name: "aero x2 at 1 kHz",
+            params: aero,
+            rate_hz: 1000,
+        },
+        Configuration {
+            name: "substructure x2 with a bump stop and a cubic spring at 2 kHz",
+            params: sub,
+            rate_hz: 2000,
+        },
+    ]
+}
+
+/// Runs configuration `c` in QEMU (configured over XCP, `CH` channels) for `samples`
+/// samples of road, body motion, forces and speed; returns the firmware's figures.
+fn configuration_run<const CH: usize>(
+    elf: &Path,
+    c: &Configuration,
+    samples: usize,
+    failures: &mut Vec<String>,
+) -> Result<HashMap<String, f64>, String> {
+    use mil_firmware::calibration::{page_values, reference_words, Settings, DEFAULT_SETTINGS};
+    use mil_rig::harness::Board;
+    let image = std::fs::read(elf).map_err(|e| e.to_string())?;
+    let working = mil_a2l::symbols(&image)
+        .map_err(|e| e.to_string())?
+        .get(mil_a2l::WORKING_SYMBOL)
+        .map(|(a, _)| *a as u32)
+        .ok_or("no working page in the ELF")?;
+    let options = QemuOptions {
+        icount_shift: Some(0),
+        icount_sleep: false,
+        ..QemuOptions::default()
+    };
+    let (qemu, link) = Qemu::spawn(elf, &options).map_err(|e| format!("QEMU: {e}"))?;
+    let mut board = RemoteBoard::new(link)?;
+    let settings = Settings {
+        sample_rate_hz: c.rate_hz,
+        watchdog: WATCHDOG_OFF,
+        ..DEFAULT_SETTINGS
+    };
+    let target = page_values(&c.params, &settings).map(f32::to_bits);
+    let done = mil_can::configure(
+        board.transport_mut(),
+        working,
+        mil_xcp::mock::TEST_SECRET,
+        &reference_words(),
+        &target,
+    )
+    .map_err(|e| format!("{}: {e}", c.name))?;
+    board.replay(&reference_words(), &done.writes)?;
+    Board::<CH>::start(&mut board)?;
+    let dt = 1.0 / f32::from(c.rate_hz);
+    for k in 0..samples {
+        let t = k as f32 * dt;
+        let wave = |f: f32, phase: f32| (2.0 * std::f32::consts::PI * f * t + phase).sin();
+        let mut input = model_core::ModelInput::<CH>::default();
+        for ch in 0..CH {
+            let p = ch as f32;
+            input.position[ch] = 2.0e-3 * wave(1.3 + p, p);
+            input.road[ch] = 3.0e-3 * wave(2.1 + 0.5 * p, 2.0 * p);
+            input.force[ch] = 300.0 * wave(3.1 + p, p);
+        }
+        input.speed = 50.0 + 10.0 * wave(0.2, 0.0);
+        Board::<CH>::step(&mut board, &input)?;
+    }
+    if board.mismatches() != 0 {
+        failures.push(format!(
+            "{}: {} of {} demand frames differ from the mirror's",
+            c.name,
+            board.mismatches(),
+            board.samples().len()
+        ));
+    }
+    let report = finish(qemu, board.into_transport())?;
+    let f = figures(&report)?;
+    if f.get("steps").copied() != Some(samples as f64) {
+        failures.push(format!(
+            "{}: the firmware stepped {:?} times",
+            c.name,
+            f.get("steps")
+        ));
+    }
+    Ok(f)
+}
+
 fn finish(qemu: Qemu, mut link: SlcanTcp) -> Result<String, String> {
     link.close()
         .map_err(|e| format!("closing the channel: {e}"))?;
@@ -384,6 +543,15 @@ fn budget() -> Result<bool, String> {
     let mut failures = Vec::new();
     let report = lockstep(&elf_path, o.samples, false, &mut failures)?;
     let daq_report = lockstep(&elf_path, o.samples, true, &mut failures)?;
+    let mut per_configuration = Vec::new();
+    for c in configurations() {
+        let n = (o.samples / 4).max(100);
+        let f = match c.params.channels {
+            4 => configuration_run::<4>(&elf_path, &c, n, &mut failures)?,
+            _ => configuration_run::<2>(&elf_path, &c, n, &mut failures)?,
+        };
+        per_configuration.push((c, f, n));
+    }
     let f = figures(&report)?;
     let fd = figures(&daq_report)?;
     let get_daq = |k: &str| {
@@ -496,6 +664,20 @@ fn budget() -> Result<bool, String> {
         max / 168.0,
         100.0 * max / 168.0 / 500.0
     );
+    println!("every other configuration (configured over XCP, sinusoidal road, motion, forces and speed; demand frames compared with the host mirror):");
+    for (c, f, n) in &per_configuration {
+        let get = |k: &str| f.get(k).copied().unwrap_or(f64::NAN);
+        let cycles = 168.0e6 / f64::from(c.rate_hz);
+        println!(
+            "  {}: control step min {:.0}, mean {:.1}, max {:.0} over {n} steps (the frame that completes the sample -> every demand frame encoded); max = {:.1} % of the {:.0} cycles of a sample at 168 MHz if each instruction took one cycle (target 5 %)",
+            c.name,
+            get("core_min"),
+            get("core_mean"),
+            get("core_max"),
+            100.0 * get("core_max") / cycles,
+            cycles
+        );
+    }
     println!();
     println!("memory (ELF section headers; flash: sections with contents, static RAM: sections in SRAM):");
     if let Some(b) = &board_elf {
