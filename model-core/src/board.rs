@@ -12,7 +12,8 @@
 //! nine, so its size is the largest one's; no heap). [`BoardController::swap`] installs a new
 //! validated set ([`BoardPrepared`]) between two steps:
 //! - the same kind and channel count: [`Controller::swap_params`], bumpless in any mode;
-//! - another kind, channel count or sample period: only in [`Mode::Idle`] (refused in
+//! - another kind, channel count or sample period, or a substructure's other causality (its
+//!   demand another quantity): only in [`Mode::Idle`] (refused in
 //!   Running and in Fault with [`SwapError::NotIdle`], nothing changes); the new controller is Idle and continues
 //!   the demand of every channel both configurations have ([`Controller::continue_demand`]),
 //!   ramping from there to its own safe demand at its safe ramp rate, so a change of model
@@ -417,8 +418,8 @@ macro_rules! each {
 /// Why [`BoardController::swap`] refused a parameter set; nothing changed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SwapError {
-    /// The model kind, channel count or sample period changes, and the controller is not
-    /// Idle.
+    /// The model kind, channel count, sample period or a substructure's causality changes,
+    /// and the controller is not Idle.
     NotIdle,
     /// The set was not prepared successfully ([`BoardPrepared::is_ready`]).
     NotPrepared,
@@ -491,7 +492,12 @@ impl BoardController {
             return Err(SwapError::NotPrepared);
         }
         let same_dt = prepared_dt(&prepared.prepared).to_bits() == self.dt().to_bits();
+        // A substructure's causality says what its demand is (a force or a position): another
+        // one is another configuration, as another kind is.
+        let same_causality = self.kind() != ModelKind::Substructure
+            || prepared.params.substructure.causality == self.params.substructure.causality;
         let same = same_dt
+            && same_causality
             && prepared.params.channels == self.params.channels
             && match (&mut self.running, &prepared.prepared) {
                 (Running::Tyre1(c), Prepared::Tyre1(p)) => c.swap_params(p).is_ok(),

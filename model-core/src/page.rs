@@ -414,7 +414,7 @@ impl BoardParams {
                 "substructure",
                 "causality",
                 "-",
-                "0 admittance, 1 impedance, 2 admittance through B_i, 3 prescribed motion",
+                "0 admittance, 1 impedance, 2 admittance through B_i, 3 prescribed motion (changed only while Idle)",
                 INTEGER,
                 (0.0, 3.0),
             ),

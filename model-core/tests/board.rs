@@ -299,6 +299,29 @@ fn a_parameter_change_within_a_configuration_while_running() {
     assert_eq!(c.dt(), 2.0 * DT);
 }
 
+/// A substructure's causality decides whether its demand is a force or a position: another
+/// causality is another configuration, refused while Running, taken while Idle; its other
+/// parameters change while Running.
+#[test]
+fn a_substructure_changes_causality_only_while_idle() {
+    let p = substructure(2, Causality::Impedance);
+    let mut c = BoardController::with_params(&p, DT).unwrap();
+    assert!(c.start());
+    for k in 0..100 {
+        c.step(&input(k));
+    }
+    let mut stiffer = p;
+    stiffer.substructure.interface[0].stiffness *= 1.5;
+    assert_eq!(c.swap(&stiffer.prepare(DT).unwrap()), Ok(()));
+    let admittance = substructure(2, Causality::Admittance).prepare(DT).unwrap();
+    assert_eq!(c.swap(&admittance), Err(SwapError::NotIdle));
+    assert_eq!(c.params(), &stiffer);
+    assert_eq!(c.mode(), Mode::Running);
+    c.stop();
+    assert_eq!(c.swap(&admittance), Ok(()));
+    assert_eq!(c.params(), admittance.params());
+}
+
 /// A configuration drawn over the board's kinds, channel counts and documented ranges.
 fn any_params() -> impl Strategy<Value = BoardParams> {
     let kind = 0u32..3;
