@@ -238,8 +238,21 @@ impl Application {
     /// `counter_modulus` is the wrap of the measurement counter (e.g. 256 for a `u8`).
     /// Fails only if the defaults were invalid, which a unit test rules out.
     pub fn new(counter_modulus: u32) -> Result<Self, ParamError> {
+        let mut candidate = crate::calibration::Candidate::NEW;
+        Self::new_in(counter_modulus, &mut candidate)
+    }
+
+    /// As [`Application::new`], preparing the defaults in `candidate` (the board's static
+    /// one: no kilobyte parameter set on the stack at boot).
+    pub fn new_in(
+        counter_modulus: u32,
+        candidate: &mut crate::calibration::Candidate,
+    ) -> Result<Self, ParamError> {
         crate::calibration::init_reference();
-        let controller = Controller::with_params(&default_params(), DT)?;
+        *candidate.prepared.params_mut() = default_params();
+        candidate.prepared.prepare(DT)?;
+        let controller = Controller::new(&candidate.prepared)
+            .map_err(|_| ParamError::OutOfRange(model_core::params::Field::ModelKind))?;
         Ok(Self {
             controller,
             input: ModelInput::default(),

@@ -148,7 +148,7 @@ mod app {
         let clock = hw.clock;
         #[cfg(feature = "qemu")]
         let calibration = clock::Calibration::measure(&clock);
-        let mut app = match Application::new(COUNTER_MODULUS) {
+        let mut app = match Application::new_in(COUNTER_MODULUS, candidate) {
             Ok(app) => app,
             Err(_) => crate::fatal::stop(format_args!("default parameters rejected")),
         };
