@@ -22,7 +22,8 @@ XCP port). The test
    (ERR_SEQUENCE, nothing written);
 5. refused writes (NaN, above the A2L maximum, limits_demand_min_0 above limits_demand_max_0, outside the
    calibration page) answer the expected XCP error, change neither the page nor the demands,
-   and `calibration_last_rejection` shows the reason code;
+   and `calibration_last_rejection` shows the reason code; so does another configuration
+   (`model_channels` 2) while running: ERR_RESOURCE_TEMPORARY_NOT_ACCESSIBLE, reason 145;
 6. pages: GET_CAL_PAGE, SET_CAL_PAGE ECU -> reference page (the defaults run), XCP access to
    the reference page (reads the defaults, writes are protected), back to the working page
    (the written value runs again), COPY_CAL_PAGE reference -> working (defaults again);
@@ -34,7 +35,10 @@ XCP port). The test
    same step; a sample the firmware could not queue (its DAQ task behind by more than its
    queue: QEMU's blocking USART writes) is counted in `daq_dropped`: every gap must be
    counted, and at most 2 % may be lost;
-8. DISCONNECT, then `C` on USART1: the firmware prints its report and exits 0.
+8. the lockstep stopped, Stop on USART1, `model_kind` 2 (the default substructure) written
+   while Idle: accepted; Start: the next steps run the substructure (the demand leaves the
+   tyre's and falls to the substructure's zero, never rising);
+9. DISCONNECT, then `C` on USART1: the firmware prints its report and exits 0.
 
 Every check prints one `ok   ...` line; the first failure prints `FAIL ...` with what was
 expected and what came, stops QEMU and exits 1.
@@ -960,6 +964,36 @@ def run_xcp(x, lock, policy, daq_list, a2l, secret, args):
           + (f"; (steps, DAQ demand, frame counts) {mismatch[:5]}" if mismatch else ""))
     bad_pos = [(r["steps"], r["position"]) for r in rows if abs(r["position"] - by_step[r["steps"]].position) > 1e-9]
     check(not bad_pos, "DAQ position = the measurement's -1 mm" + (f"; got {bad_pos[:5]}" if bad_pos else ""))
+    # 8. Another configuration while Idle: refused while running (step 5), accepted after a
+    #    Stop, and the next Start runs the new model. The lockstep thread is done with; the
+    #    test steps by hand. The default substructure (one free 1 kg DOF, no interface
+    #    coupling) demands nothing, where the tyre demands its static load and more.
+    lock.stop_event.set()
+    lock.join(timeout=10)
+    lock.alive()
+    link = lock.link
+    link.send(smoke.command(2, 0, 0))  # Stop
+    ack = link.frame(smoke.ACK)
+    check(ack is not None and ack[2] == 0, f"Stop acknowledged: {ack and ack.hex()}")
+    code, _, _ = download(chars["model_kind"]["address"], f32_bytes(2.0))
+    check(code is None, f"model_kind 2 (substructure) while Idle: {err_name(code)}")
+    check(read_f32("model_kind") == 2.0, f"model_kind reads back {read_f32('model_kind'):g}")
+    link.send(smoke.command(1, 0, 0))  # Start
+    ack = link.frame(smoke.ACK)
+    check(ack is not None and ack[2] == 0 and ack[3] == 1, f"Start acknowledged, running: {ack and ack.hex()}")
+    raws = []
+    for step in range(lock.steps + 1, lock.steps + 401):
+        link.send(smoke.measurement(HOLD_POSITION, 0.0, step))
+        data = link.frame(smoke.DEMAND, timeout=5.0)
+        if data is None:
+            raise Failure(f"no demand for step {step} after the switch")
+        raw = int.from_bytes(data, "little") & 0xFFFFFFFF
+        raws.append(raw - (1 << 32) if raw >= 1 << 31 else raw)
+        lock.steps = step  # the measurements sent, for the final report's count
+    falling = all(b <= a for a, b in zip(raws, raws[1:]))
+    check(raws[0] > 0 and raws[-1] == 0 and falling,
+          f"the next Start runs the substructure: demand {counts(raws[0])} -> {counts(raws[-1])} "
+          f"over {len(raws)} steps, never rising (the tyre held {counts(base)})")
     x.disconnect()
     check(True, "DISCONNECT")
 
