@@ -555,6 +555,14 @@ fn run(cli: Cli) -> Result<()> {
                     outln!("plot:           {}", p.display());
                 }
             }
+            // The image must do what the host code does: a differing frame fails the run.
+            if let Some(q) = qemu.as_ref().filter(|q| q.mismatches > 0) {
+                anyhow::bail!(
+                    "{} of {} demand frames of the firmware differ from the host mirror's",
+                    q.mismatches,
+                    q.demand_frames
+                );
+            }
             Ok(())
         }
         Command::Diagnose {
