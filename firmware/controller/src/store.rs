@@ -92,52 +92,19 @@ pub enum StoreError {
     Running = 4,
 }
 
-/// CRC-32 as zlib, Ethernet and crc32fast compute it (IEEE 802.3: polynomial 0x04C11DB7
-/// reflected, initial value and final XOR 0xFFFFFFFF), bit by bit: no table in flash. A
-/// stored record is checked at boot and after a store only (about 20 000 bit steps for a
-/// record, well under a millisecond at 168 MHz).
-#[derive(Clone, Copy, Debug)]
-pub struct Crc32(u32);
+/// The record's CRC: CRC-32/ISO-HDLC (zlib's, Ethernet's; what crc32fast computes), from
+/// the `crc` crate without a lookup table (crc32fast's 16 KB table was 5 % of the image for
+/// a check made at boot and on a store; bit by bit a record takes well under a millisecond at
+/// 168 MHz).
+pub static CRC: crc::Crc<u32, crc::NoTable> =
+    crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
 
-impl Crc32 {
-    /// Nothing hashed yet.
-    pub const fn new() -> Self {
-        Self(0xFFFF_FFFF)
-    }
+/// A running CRC that formatted text can be written into.
+struct Hash(crc::Digest<'static, u32, crc::NoTable>);
 
-    /// Hashes `bytes` on.
-    pub fn update(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 ^= u32::from(b);
-            for _ in 0..8 {
-                let mask = (self.0 & 1).wrapping_neg();
-                self.0 = (self.0 >> 1) ^ (0xEDB8_8320 & mask);
-            }
-        }
-    }
-
-    /// The CRC of everything hashed.
-    pub const fn finalize(self) -> u32 {
-        !self.0
-    }
-
-    /// The CRC of `bytes`.
-    pub fn hash(bytes: &[u8]) -> u32 {
-        let mut c = Self::new();
-        c.update(bytes);
-        c.finalize()
-    }
-}
-
-impl Default for Crc32 {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl core::fmt::Write for Crc32 {
+impl core::fmt::Write for Hash {
     fn write_str(&mut self, s: &str) -> core::fmt::Result {
-        self.update(s.as_bytes());
+        self.0.update(s.as_bytes());
         Ok(())
     }
 }
@@ -145,11 +112,11 @@ impl core::fmt::Write for Crc32 {
 /// The fingerprint of the page layout: CRC-32 of every slot's name (group, name and
 /// indices) and kind, in slot order.
 pub fn layout_id() -> u32 {
-    let mut h = Crc32::new();
+    let mut h = Hash(CRC.digest());
     let mut add = |item: &calibration::CalItem| {
         use core::fmt::Write as _;
         let _ = write!(h, "{item};");
-        h.update(&[item.kind as u8]);
+        h.0.update(&[item.kind as u8]);
     };
     for slot in 0..calibration::SETTINGS_SLOTS {
         if let Some(item) = calibration::item(slot) {
@@ -157,7 +124,7 @@ pub fn layout_id() -> u32 {
         }
     }
     model_core::page::for_each_info(&mut |_, item| add(item));
-    h.finalize()
+    h.0.finalize()
 }
 
 /// The record of `words`.
@@ -168,7 +135,7 @@ pub fn encode(words: &[u32; SLOTS]) -> [u8; RECORD_BYTES] {
         chunk.copy_from_slice(&w.to_le_bytes());
     }
     let body = RECORD_BYTES - 4;
-    let crc = Crc32::hash(out.get(..body).unwrap_or(&[]));
+    let crc = CRC.checksum(out.get(..body).unwrap_or(&[]));
     if let Some(tail) = out.get_mut(body..) {
         tail.copy_from_slice(&crc.to_le_bytes());
     }
@@ -194,7 +161,7 @@ pub fn decode(record: &[u8]) -> Result<[u32; SLOTS], Refusal> {
         return Err(Refusal::Layout);
     }
     let body = RECORD_BYTES - 4;
-    if Crc32::hash(record.get(..body).unwrap_or(&[])) != word(RECORD_WORDS - 1) {
+    if CRC.checksum(record.get(..body).unwrap_or(&[])) != word(RECORD_WORDS - 1) {
         return Err(Refusal::Crc);
     }
     Ok(core::array::from_fn(|s| word(2 + s)))
@@ -480,13 +447,13 @@ impl<const PAGES: usize, const PAGE: usize> NorFlash for RamFlash<PAGES, PAGE> {
 mod tests {
     extern crate std;
 
-    /// The store's CRC-32 is the standard one: the catalogue's check value ("123456789" ->
-    /// 0xCBF43926), and crc32fast's on drawn data of every length up to 300 bytes, whole
-    /// and in pieces.
+    /// The store's CRC-32 is the one records were stored with (crc32fast's): the
+    /// catalogue's check value ("123456789" -> 0xCBF43926), and crc32fast's on drawn data of
+    /// every length up to 300 bytes, whole and in pieces.
     #[test]
     fn the_crc_is_crc32_ieee() {
-        assert_eq!(Crc32::hash(b"123456789"), 0xCBF4_3926);
-        assert_eq!(Crc32::hash(&[]), 0);
+        assert_eq!(CRC.checksum(b"123456789"), 0xCBF4_3926);
+        assert_eq!(CRC.checksum(&[]), 0);
         let mut x = 0x1234_5678u32;
         for len in 0..300 {
             let data: std::vec::Vec<u8> = (0..len)
@@ -497,8 +464,8 @@ mod tests {
                     x as u8
                 })
                 .collect();
-            assert_eq!(Crc32::hash(&data), crc32fast::hash(&data), "length {len}");
-            let mut pieces = Crc32::new();
+            assert_eq!(CRC.checksum(&data), crc32fast::hash(&data), "length {len}");
+            let mut pieces = CRC.digest();
             for chunk in data.chunks(7) {
                 pieces.update(chunk);
             }
