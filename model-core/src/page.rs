@@ -159,10 +159,16 @@ const SWITCH: WordKind = WordKind::Switch;
 
 impl BoardParams {
     /// Calls `f` with every field, in declaration order, and what it is (see the module
-    /// docs). `f` is a trait object: one copy of this long walk in the image, whatever the
-    /// callers.
-    #[allow(clippy::too_many_lines)]
+    /// docs). `f` is a trait object, hidden from the optimiser: one copy of this long walk in
+    /// the image, whatever the callers (specialised per caller it took 55 KB of the board's
+    /// flash).
     pub fn visit(&mut self, f: &mut dyn FnMut(&ParamInfo, WordMut<'_>)) {
+        self.walk(core::hint::black_box(f));
+    }
+
+    #[allow(clippy::too_many_lines)]
+    #[inline(never)]
+    fn walk(&mut self, f: &mut dyn FnMut(&ParamInfo, WordMut<'_>)) {
         use WordMut::{Count, Real};
         let ch_max = BOARD_CHANNELS as f32;
         f(
