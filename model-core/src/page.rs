@@ -844,17 +844,7 @@ pub fn to_words(p: &BoardParams) -> [f32; WORDS] {
 /// The parameter set of page `words`, each word checked against its item (see the module
 /// docs); the set as a whole is not validated here.
 pub fn from_words(words: &[f32; WORDS]) -> Result<BoardParams, WordError> {
-    let mut p = crate::board::BoardParams::tyres(
-        crate::tyre::TyreParams::PAPER,
-        1,
-        crate::limits::DemandLimits {
-            min: 0.0,
-            max: 1.0,
-            rate: 1.0,
-        },
-        0.0,
-        1.0,
-    );
+    let mut p = scratch();
     from_words_into(|k| words.get(k).copied(), &mut p)?;
     Ok(p)
 }
@@ -897,9 +887,10 @@ pub fn check(info: &ParamInfo, word: usize, v: f32) -> Result<(), WordError> {
     Ok(())
 }
 
-/// Calls `f` with every word's index and what it is, in page order (one walk).
-pub fn for_each_info(f: &mut dyn FnMut(usize, &ParamInfo)) {
-    let mut p = BoardParams::tyres(
+/// A set to walk the page's items with (its values do not matter: the items do not depend
+/// on them).
+fn scratch() -> BoardParams {
+    BoardParams::tyres(
         crate::tyre::TyreParams::PAPER,
         1,
         crate::limits::DemandLimits {
@@ -909,7 +900,12 @@ pub fn for_each_info(f: &mut dyn FnMut(usize, &ParamInfo)) {
         },
         0.0,
         1.0,
-    );
+    )
+}
+
+/// Calls `f` with every word's index and what it is, in page order (one walk).
+pub fn for_each_info(f: &mut dyn FnMut(usize, &ParamInfo)) {
+    let mut p = scratch();
     let mut k = 0;
     p.visit(&mut |i, _| {
         f(k, i);
@@ -919,24 +915,11 @@ pub fn for_each_info(f: &mut dyn FnMut(usize, &ParamInfo)) {
 
 /// What word `word` is, or `None` beyond the page.
 pub fn info(word: usize) -> Option<ParamInfo> {
-    let mut p = BoardParams::tyres(
-        crate::tyre::TyreParams::PAPER,
-        1,
-        crate::limits::DemandLimits {
-            min: 0.0,
-            max: 1.0,
-            rate: 1.0,
-        },
-        0.0,
-        1.0,
-    );
-    let mut k = 0;
     let mut found = None;
-    p.visit(&mut |i, _| {
+    for_each_info(&mut |k, i| {
         if k == word {
             found = Some(*i);
         }
-        k += 1;
     });
     found
 }

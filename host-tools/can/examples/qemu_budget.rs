@@ -180,28 +180,9 @@ fn figures(report: &str) -> Result<HashMap<String, f64>, String> {
         .collect())
 }
 
-/// One XCP command on the link; the first response packet.
+/// One XCP command on the link that must succeed; its positive response.
 fn xcp(link: &mut SlcanTcp, cto: &[u8]) -> Result<Vec<u8>, String> {
-    use mil_can::Transport as _;
-    use mil_firmware::config::{XCP_COMMAND_ID, XCP_RESPONSE_ID};
-    let frame = mil_frames::RawFrame::from_parts(XCP_COMMAND_ID, cto)
-        .ok_or_else(|| format!("XCP command {cto:02X?} does not fit a frame"))?;
-    link.send(&frame).map_err(|e| format!("XCP send: {e}"))?;
-    let deadline = Instant::now() + Duration::from_secs(5);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        match link.recv(left).map_err(|e| format!("XCP receive: {e}"))? {
-            Some(f) if f.id == XCP_RESPONSE_ID => {
-                let p = f.payload().to_vec();
-                if p.first() == Some(&0xFF) {
-                    return Ok(p);
-                }
-                return Err(format!("XCP command {cto:02X?} answered {p:02X?}"));
-            }
-            Some(_) => {}
-            None => return Err(format!("no XCP answer to {cto:02X?}")),
-        }
-    }
+    mil_can::XcpLink::new(link).ok(cto)
 }
 
 /// The DAQ list of the budget run: the demand, position, road and step count (four ODTs
@@ -212,16 +193,8 @@ const DAQ_SIGNALS: [&str; 4] = ["demand", "position", "road", "steps"];
 /// list with [`DAQ_SIGNALS`] on the control-step event, with timestamps.
 fn start_daq(link: &mut SlcanTcp) -> Result<(), String> {
     use mil_firmware::calibration::MEAS_ITEMS;
-    xcp(link, &[0xFF, 0x00])?;
-    let seed = xcp(link, &[0xF8, 0x00, 0x04])?;
-    let seed: [u8; 6] = seed
-        .get(2..8)
-        .and_then(|s| s.try_into().ok())
-        .ok_or("short GET_SEED answer")?;
-    let key = mil_xcp::compute_key(mil_xcp::mock::TEST_SECRET, 0x04, &seed);
-    let mut unlock = vec![0xF7, 6];
-    unlock.extend_from_slice(&key);
-    xcp(link, &unlock)?;
+    let daq = 0x04; // the DAQ resource
+    mil_can::XcpLink::new(link).connect_unlock(mil_xcp::mock::TEST_SECRET, daq)?;
     // The measurement block's address: from the ELF, as the A2L file gives it.
     let elf = find_firmware_elf().ok_or("the QEMU ELF vanished")?;
     let image = std::fs::read(&elf).map_err(|e| e.to_string())?;

@@ -34,14 +34,25 @@ pub struct Configured {
     pub passes: usize,
 }
 
-/// Raw XCP commands on the board's link (CAN IDs of `mil_firmware::config`).
-struct Xcp<'a, T: Transport> {
+/// Raw XCP commands on the board's link (CAN IDs of `mil_firmware::config`): what tests and
+/// benchmarks that drive the firmware's slave by hand use (the full master is
+/// `mil-xcp-master`).
+pub struct XcpLink<'a, T: Transport> {
     link: &'a mut T,
 }
 
-impl<T: Transport> Xcp<'_, T> {
-    /// One command; its response packet (DAQ packets met meanwhile are skipped).
-    fn command(&mut self, cto: &[u8]) -> Result<Vec<u8>, String> {
+impl<'a, T: Transport> XcpLink<'a, T> {
+    /// Commands on `link`.
+    pub fn new(link: &'a mut T) -> Self {
+        Self { link }
+    }
+
+    /// One command; its response packet, positive or not (DAQ packets met meanwhile are
+    /// skipped).
+    ///
+    /// # Errors
+    /// A transport error, or no response within 2 s.
+    pub fn command(&mut self, cto: &[u8]) -> Result<Vec<u8>, String> {
         let frame = RawFrame::from_parts(XCP_COMMAND_ID, cto)
             .ok_or_else(|| format!("XCP command {cto:02X?}: longer than a CAN frame"))?;
         self.link
@@ -67,14 +78,35 @@ impl<T: Transport> Xcp<'_, T> {
         }
     }
 
-    /// A command that must succeed.
-    fn ok(&mut self, cto: &[u8]) -> Result<Vec<u8>, String> {
+    /// A command that must succeed; its positive response.
+    ///
+    /// # Errors
+    /// As [`XcpLink::command`], and a negative response.
+    pub fn ok(&mut self, cto: &[u8]) -> Result<Vec<u8>, String> {
         let r = self.command(cto)?;
         if r.first() == Some(&0xFF) {
             Ok(r)
         } else {
             Err(format!("XCP command {cto:02X?} refused: {r:02X?}"))
         }
+    }
+
+    /// CONNECT, then unlocks `resource` (a `GET_SEED` resource bit) with `secret`'s key.
+    ///
+    /// # Errors
+    /// No answer, a seed of another length than the firmware's 6 bytes, a refused key.
+    pub fn connect_unlock(&mut self, secret: &[u8], resource: u8) -> Result<(), String> {
+        self.ok(&[0xFF, 0x00])?;
+        let seed = self.ok(&[0xF8, 0x00, resource])?;
+        let seed: [u8; 6] = seed
+            .get(2..8)
+            .and_then(|s| s.try_into().ok())
+            .ok_or_else(|| format!("a seed of another length: {seed:02X?}"))?;
+        let key = mil_xcp::compute_key(secret, resource, &seed);
+        let mut unlock = vec![0xF7, 6];
+        unlock.extend_from_slice(&key);
+        self.ok(&unlock)?;
+        Ok(())
     }
 }
 
@@ -92,18 +124,8 @@ pub fn configure<T: Transport>(
     current: &[u32; SLOTS],
     target: &[u32; SLOTS],
 ) -> Result<Configured, String> {
-    let mut xcp = Xcp { link };
-    xcp.ok(&[0xFF, 0x00])?;
-    let resource = 0x01; // CAL/PAG
-    let seed = xcp.ok(&[0xF8, 0x00, resource])?;
-    let seed: [u8; 6] = seed
-        .get(2..8)
-        .and_then(|s| s.try_into().ok())
-        .ok_or_else(|| format!("a seed of another length: {seed:02X?}"))?;
-    let key = mil_xcp::compute_key(secret, resource, &seed);
-    let mut unlock = vec![0xF7, 6];
-    unlock.extend_from_slice(&key);
-    xcp.ok(&unlock)?;
+    let mut xcp = XcpLink::new(link);
+    xcp.connect_unlock(secret, 0x01)?; // CAL/PAG
     let mut pending: Vec<usize> = (0..SLOTS).filter(|&s| current[s] != target[s]).collect();
     let mut done = Configured {
         writes: Vec::new(),

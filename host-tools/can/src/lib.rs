@@ -35,7 +35,7 @@ mod socket;
 mod transport;
 
 pub use board::{RemoteBoard, Sample, DEFAULT_REPLY_TIMEOUT};
-pub use configure::{configure, Configured};
+pub use configure::{configure, Configured, XcpLink};
 pub use qemu::{
     find_firmware_elf, listening_ports, Qemu, QemuOptions, QemuOutput, FIRMWARE_BUILD_COMMAND,
 };
