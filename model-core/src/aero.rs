@@ -174,6 +174,26 @@ pub struct AeroParams {
 }
 
 impl AeroParams {
+    /// Every field zero (not a valid set): a place holder.
+    pub const ZERO: Self = Self {
+        stiffness: [[0.0; 2]; 2],
+        nominal_force: [0.0; 2],
+        reference_speed: 0.0,
+        front_axle: 0.0,
+        rear_axle: 0.0,
+        use_map: 0,
+        map: RideHeightMap {
+            front_points: 0,
+            rear_points: 0,
+            front_height: [0.0; MAP_POINTS],
+            rear_height: [0.0; MAP_POINTS],
+            front_force: [[0.0; MAP_POINTS]; MAP_POINTS],
+            rear_force: [[0.0; MAP_POINTS]; MAP_POINTS],
+            static_front_height: 0.0,
+            static_rear_height: 0.0,
+        },
+    };
+
     /// The paper's Formula One parameters (Table 1): `K_i` in kN units converted to SI,
     /// `F_n = [-8.28 kN, -1.49 kN m]`, `l_f = 1.8 m`, `l_r = 1.4 m`. The paper gives one
     /// (unnamed) speed; 50 m/s is taken as that reference speed here.

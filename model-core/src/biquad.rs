@@ -221,6 +221,18 @@ impl CascadeCoefficients {
         section: [BiquadCoefficients::IDENTITY; MAX_SECTIONS],
     };
 
+    /// Every coefficient zero (not a valid filter): a place holder of zero bits.
+    pub const ZERO: Self = Self {
+        sections: 0,
+        section: [BiquadCoefficients {
+            beta0: 0.0,
+            beta1: 0.0,
+            beta2: 0.0,
+            alpha1: 0.0,
+            alpha2: 0.0,
+        }; MAX_SECTIONS],
+    };
+
     /// A cascade of the given sections; `None` if more than [`MAX_SECTIONS`] are given.
     pub fn from_sections(sections: &[BiquadCoefficients]) -> Option<Self> {
         if sections.len() > MAX_SECTIONS {

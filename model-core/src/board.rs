@@ -35,6 +35,7 @@ use crate::tyre::{TyreModel, TyreModelParams, TyreParams};
 
 /// Most actuator channels of a board configuration.
 pub const BOARD_CHANNELS: usize = 4;
+const _: () = assert!(BOARD_CHANNELS <= crate::substructure::MAX_SUBSTRUCTURE_CHANNELS);
 
 /// The numerical model the board runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,6 +103,28 @@ pub struct BoardParams {
 }
 
 impl BoardParams {
+    /// Every field zero (the tyre kind on no channels: not a valid set). A place to read a
+    /// page into ([`crate::page::from_words_into`] writes every field).
+    pub const ZERO: Self = Self {
+        kind: 0,
+        channels: 0,
+        tyre: TyreModelParams {
+            tyre: [TyreParams {
+                stiffness: 0.0,
+                damping: 0.0,
+                static_load: 0.0,
+                lift_off: 0,
+                velocity_cutoff_hz: 0.0,
+            }; BOARD_CHANNELS],
+        },
+        aero: AeroParams::ZERO,
+        substructure: SubstructureParams::ZERO,
+        filter: [CascadeCoefficients::ZERO; BOARD_CHANNELS],
+        limits: [ZERO_LIMITS; BOARD_CHANNELS],
+        safe_demand: [0.0; BOARD_CHANNELS],
+        safe_ramp_rate: [0.0; BOARD_CHANNELS],
+    };
+
     /// `channels` tyres `tyre` with the same limits and safe state on every channel, no
     /// command filter; the aero model at [`AeroParams::PAPER`] and a one-DOF substructure
     /// of 1 kg on nothing as the other kinds' starting values.
@@ -193,26 +216,60 @@ impl BoardParams {
     fn controller<P, const CH: usize>(&self, model: P) -> ControllerParams<P, CH> {
         let mut p = ControllerParams {
             model,
-            filter: fit(&self.filter, CascadeCoefficients::IDENTITY),
-            limits: fit(&self.limits, UNUSED_LIMITS),
-            safe_demand: fit(&self.safe_demand, 0.0),
-            safe_ramp_rate: fit(&self.safe_ramp_rate, UNUSED_RAMP_RATE),
+            filter: [CascadeCoefficients::IDENTITY; CH],
+            limits: [UNUSED_LIMITS; CH],
+            safe_demand: [0.0; CH],
+            safe_ramp_rate: [UNUSED_RAMP_RATE; CH],
         };
-        let used = self.channels as usize;
-        p.filter
-            .iter_mut()
-            .skip(used)
-            .for_each(|f| *f = CascadeCoefficients::IDENTITY);
-        p.limits
-            .iter_mut()
-            .skip(used)
-            .for_each(|l| *l = UNUSED_LIMITS);
-        p.safe_demand.iter_mut().skip(used).for_each(|d| *d = 0.0);
-        p.safe_ramp_rate
-            .iter_mut()
-            .skip(used)
-            .for_each(|r| *r = UNUSED_RAMP_RATE);
+        self.channels_into(&mut p);
         p
+    }
+
+    /// The per-channel part of [`BoardParams::controller`] (filters, limits, safe state)
+    /// into `p`, in place; its model is left as it is.
+    fn channels_into<P, const CH: usize>(&self, p: &mut ControllerParams<P, CH>) {
+        let used = (self.channels as usize).min(CH);
+        for k in 0..CH {
+            let on = k < used;
+            let (filter, limits, safe, ramp) = (
+                p.filter.get_mut(k),
+                p.limits.get_mut(k),
+                p.safe_demand.get_mut(k),
+                p.safe_ramp_rate.get_mut(k),
+            );
+            if let Some(f) = filter {
+                *f = self
+                    .filter
+                    .get(k)
+                    .filter(|_| on)
+                    .copied()
+                    .unwrap_or(CascadeCoefficients::IDENTITY);
+            }
+            if let Some(l) = limits {
+                *l = self
+                    .limits
+                    .get(k)
+                    .filter(|_| on)
+                    .copied()
+                    .unwrap_or(UNUSED_LIMITS);
+            }
+            if let Some(d) = safe {
+                *d = self
+                    .safe_demand
+                    .get(k)
+                    .filter(|_| on)
+                    .copied()
+                    .unwrap_or(0.0);
+            }
+            if let Some(r) = ramp {
+                *r = self
+                    .safe_ramp_rate
+                    .get(k)
+                    .filter(|_| on)
+                    .copied()
+                    .unwrap_or(UNUSED_RAMP_RATE);
+            }
+        }
     }
 
     /// Validates the running configuration for sample period `dt` (s) and derives its
@@ -229,7 +286,14 @@ impl BoardParams {
     /// `channels` on [`UNCONNECTED`](crate::substructure::UNCONNECTED) (no coupling, no
     /// road input).
     pub fn running_substructure(&self) -> SubstructureParams<BOARD_CHANNELS> {
-        let mut s = self.substructure;
+        let mut s = SubstructureParams::ZERO;
+        self.running_substructure_into(&mut s);
+        s
+    }
+
+    /// [`BoardParams::running_substructure`] into `s`, in place.
+    fn running_substructure_into(&self, s: &mut SubstructureParams<BOARD_CHANNELS>) {
+        *s = self.substructure;
         let used = self.channels as usize;
         s.interface
             .iter_mut()
@@ -244,7 +308,6 @@ impl BoardParams {
                 .skip(used)
                 .for_each(|v| *v = 0.0);
         }
-        s
     }
 }
 
@@ -259,29 +322,45 @@ const UNUSED_RAMP_RATE: f32 = 1.0;
 
 /// The running configuration's validated parameters, one variant per kind and tyre
 /// channel count (the substructure runs [`BOARD_CHANNELS`] wide, its unused channels
-/// unconnected: one copy of its code).
+/// unconnected: one copy of its code). An explicit tag with the (largest) substructure
+/// variant at zero, so that [`SUB_BLANK`] is all zero bits.
 #[derive(Clone, Copy, Debug)]
 #[allow(clippy::large_enum_variant)] // one lives at a time; no heap on the board
+#[repr(u32)]
 enum Prepared {
+    Sub(PreparedParams<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS>) = 0,
     Tyre1(PreparedParams<TyreModel<1>, 1>),
     Tyre2(PreparedParams<TyreModel<2>, 2>),
     Tyre3(PreparedParams<TyreModel<3>, 3>),
     Tyre4(PreparedParams<TyreModel<4>, 4>),
     Aero(PreparedParams<AeroModel, 2>),
-    Sub(PreparedParams<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS>),
 }
 
 /// A substructure variant with no valid coefficients: the place its set is prepared into.
-const SUB_BLANK: Prepared = Prepared::Sub(PreparedParams::unprepared(
-    ControllerParams {
-        model: SubstructureParams::zeroed(1, crate::Causality::Impedance),
-        filter: [CascadeCoefficients::IDENTITY; BOARD_CHANNELS],
-        limits: [UNUSED_LIMITS; BOARD_CHANNELS],
-        safe_demand: [0.0; BOARD_CHANNELS],
-        safe_ramp_rate: [UNUSED_RAMP_RATE; BOARD_CHANNELS],
-    },
-    SubstructurePrepared::ZERO,
-));
+/// Every field zero (tag, counts, coefficients, the discriminant-0 causality), so a static
+/// holding it is zero-initialised memory (`.bss`) and writing it is a fill, not a copy of
+/// a kilobyte image kept in flash.
+const SUB_BLANK: Prepared = Prepared::Sub(SUB_PREPARED);
+
+/// The substructure's set of [`SUB_BLANK`].
+const SUB_PREPARED: PreparedParams<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS> =
+    PreparedParams::unprepared(
+        ControllerParams {
+            model: SubstructureParams::ZERO,
+            filter: [CascadeCoefficients::ZERO; BOARD_CHANNELS],
+            limits: [ZERO_LIMITS; BOARD_CHANNELS],
+            safe_demand: [0.0; BOARD_CHANNELS],
+            safe_ramp_rate: [0.0; BOARD_CHANNELS],
+        },
+        SubstructurePrepared::ZERO,
+    );
+
+/// Demand limits of all zero bits (a place holder of [`SUB_BLANK`], never validated).
+const ZERO_LIMITS: DemandLimits = DemandLimits {
+    min: 0.0,
+    max: 0.0,
+    rate: 0.0,
+};
 
 /// A [`BoardParams`] with the running configuration's derived coefficients. Prepared in
 /// place ([`BoardPrepared::prepare`]: on the board it is kilobytes, so it lives in one
@@ -295,9 +374,10 @@ pub struct BoardPrepared {
 }
 
 impl BoardPrepared {
-    /// Not prepared, holding the default tyre set: a place to prepare into.
+    /// Not prepared, holding [`BoardParams::ZERO`]: a place to prepare into. All zero
+    /// bits, so a static one costs no flash (`.bss`, not a kilobyte `.data` image).
     pub const BLANK: Self = Self {
-        params: BoardParams::tyres(TyreParams::PAPER, 1, UNUSED_LIMITS, 0.0, UNUSED_RAMP_RATE),
+        params: BoardParams::ZERO,
         prepared: SUB_BLANK,
         ready: false,
     };
@@ -382,24 +462,32 @@ fn prepare_substructure(p: &BoardParams, dt: f32, out: &mut Prepared) -> Result<
     if !matches!(out, Prepared::Sub(_)) {
         to_substructure(out);
     }
-    let params = p.controller::<_, BOARD_CHANNELS>(p.running_substructure());
     match out {
-        Prepared::Sub(s) => s.prepare_into(&params, dt),
+        Prepared::Sub(s) => s.prepare_in_place(dt, |c| {
+            p.channels_into(c);
+            p.running_substructure_into(&mut c.model);
+        }),
         _ => Err(ParamError::OutOfRange(Field::ModelKind)),
     }
 }
 
-/// One controller of the running configuration.
+/// One controller of the running configuration. An explicit tag with the (largest)
+/// substructure variant at zero, as [`Prepared`]: [`SUB_RUNNING`] is all zero bits.
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // one lives at a time; no heap on the board
+#[repr(u32)]
 enum Running {
+    Sub(Controller<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS>) = 0,
     Tyre1(Controller<TyreModel<1>, 1>),
     Tyre2(Controller<TyreModel<2>, 2>),
     Tyre3(Controller<TyreModel<3>, 3>),
     Tyre4(Controller<TyreModel<4>, 4>),
     Aero(Controller<AeroModel, 2>),
-    Sub(Controller<SubstructureModel<BOARD_CHANNELS>, BOARD_CHANNELS>),
 }
+
+/// A substructure controller with no parameters (all zero bits): the place one is
+/// installed into.
+const SUB_RUNNING: Running = Running::Sub(Controller::blank(SUB_PREPARED, SubstructureModel::ZERO));
 
 /// Applies `$body` to the controller `$c` of whichever variant `$running` holds.
 macro_rules! each {
@@ -434,16 +522,21 @@ pub struct BoardController {
 }
 
 impl BoardController {
+    /// Idle on no channels, its demand zero, all zero bits: the place a configuration is
+    /// swapped into ([`BoardController::swap`] installs any, as it is Idle), e.g. the
+    /// initial value of a static, which then costs no flash.
+    pub const BLANK: Self = Self {
+        params: BoardParams::ZERO,
+        running: SUB_RUNNING,
+    };
+
     /// An idle controller of the configuration `prepared`, its demand at the safe demand;
-    /// [`SwapError::NotPrepared`] if the set is not [`BoardPrepared::is_ready`].
+    /// [`SwapError::NotPrepared`] if the set is not [`BoardPrepared::is_ready`]. (On the
+    /// board, swap into a [`BoardController::BLANK`] in place: this is kilobytes.)
     pub fn new(prepared: &BoardPrepared) -> Result<Self, SwapError> {
-        if !prepared.ready {
-            return Err(SwapError::NotPrepared);
-        }
-        Ok(Self {
-            params: prepared.params,
-            running: running(&prepared.prepared),
-        })
+        let mut c = Self::BLANK;
+        c.swap(prepared)?;
+        Ok(c)
     }
 
     /// Validates `params` for `dt` and builds an idle controller.
@@ -519,7 +612,7 @@ impl BoardController {
         let channels = self.channels();
         // Built in place (the controllers are kilobytes: no copy of the whole on the stack).
         self.params = prepared.params;
-        self.running = running(&prepared.prepared);
+        install(&mut self.running, &prepared.prepared);
         let mut carried = [None; BOARD_CHANNELS];
         for (c, d) in carried.iter_mut().zip(demand).take(channels) {
             *c = Some(d);
@@ -591,14 +684,24 @@ impl BoardController {
 }
 
 /// An idle controller of the configuration `p`.
-fn running(p: &Prepared) -> Running {
+/// Makes `running` an idle controller of `p`, in place: the substructure's (kilobytes)
+/// into a zero-filled [`SUB_RUNNING`], the others (hundreds of bytes) by value.
+#[inline(never)]
+fn install(running: &mut Running, p: &Prepared) {
     match p {
-        Prepared::Tyre1(p) => Running::Tyre1(Controller::new(*p)),
-        Prepared::Tyre2(p) => Running::Tyre2(Controller::new(*p)),
-        Prepared::Tyre3(p) => Running::Tyre3(Controller::new(*p)),
-        Prepared::Tyre4(p) => Running::Tyre4(Controller::new(*p)),
-        Prepared::Aero(p) => Running::Aero(Controller::new(*p)),
-        Prepared::Sub(p) => Running::Sub(Controller::new(*p)),
+        Prepared::Tyre1(p) => *running = Running::Tyre1(Controller::new(*p)),
+        Prepared::Tyre2(p) => *running = Running::Tyre2(Controller::new(*p)),
+        Prepared::Tyre3(p) => *running = Running::Tyre3(Controller::new(*p)),
+        Prepared::Tyre4(p) => *running = Running::Tyre4(Controller::new(*p)),
+        Prepared::Aero(p) => *running = Running::Aero(Controller::new(*p)),
+        Prepared::Sub(p) => {
+            if !matches!(running, Running::Sub(_)) {
+                *running = SUB_RUNNING;
+            }
+            if let Running::Sub(c) = running {
+                c.install(p);
+            }
+        }
     }
 }
 

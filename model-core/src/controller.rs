@@ -214,6 +214,20 @@ impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
         Ok(())
     }
 
+    /// As [`PreparedParams::prepare_into`] of the set `fill` writes into this one's, in
+    /// place (no copy of a kilobyte set on the stack); on error `self` holds no valid set.
+    pub fn prepare_in_place(
+        &mut self,
+        dt: f32,
+        fill: impl FnOnce(&mut ControllerParams<M::Params, CH>),
+    ) -> Result<(), ParamError> {
+        fill(&mut self.params);
+        Self::check(&self.params, dt)?;
+        M::prepare_into(&self.params.model, dt, &mut self.model)?;
+        self.dt = dt;
+        Ok(())
+    }
+
     /// A set of `params` with the model's coefficients `model`, not validated: only as a
     /// place to [`PreparedParams::prepare_into`].
     pub(crate) const fn unprepared(
@@ -225,6 +239,13 @@ impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
             model,
             dt: 0.0,
         }
+    }
+
+    /// Makes this a copy of `other`, field by field into place (no temporary of the whole).
+    fn copy_from(&mut self, other: &Self) {
+        self.params = other.params;
+        self.model = other.model;
+        self.dt = other.dt;
     }
 
     /// Validates everything but the model's parameters.
@@ -373,6 +394,65 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         }
     }
 
+    /// A controller holding `prepared` and `model` with every other field zero (Idle,
+    /// demand zero, no reset pending): not one to run, a place to
+    /// [`Controller::install`] into. With all-zero arguments it is all zero bits.
+    pub(crate) const fn blank(prepared: PreparedParams<M, CH>, model: M) -> Self {
+        let idle = Status {
+            mode: Mode::Idle,
+            fault: 0,
+            amplitude_limited: 0,
+            rate_limited: 0,
+            invalid_input: 0,
+        };
+        Self {
+            prepared,
+            model,
+            filter: [CascadeState::ZERO; CH],
+            limiter: [RateLimiter::new(0.0); CH],
+            active_limits: [DemandLimits {
+                min: 0.0,
+                max: 0.0,
+                rate: 0.0,
+            }; CH],
+            fade: [Fade {
+                offset: 0.0,
+                per_step: 0.0,
+            }; CH],
+            blend: false,
+            settling: false,
+            mode: Mode::Idle,
+            fault: 0,
+            needs_reset: false,
+            status: idle,
+        }
+    }
+
+    /// Makes this the controller [`Controller::new`] would build of `prepared` (Idle, its
+    /// demand at the safe demand), in place: no temporary of the (kilobyte) whole.
+    pub fn install(&mut self, prepared: &PreparedParams<M, CH>) {
+        self.prepared.copy_from(prepared);
+        self.model = M::new();
+        self.filter = [CascadeState::ZERO; CH];
+        for (l, safe) in self.limiter.iter_mut().zip(&prepared.params.safe_demand) {
+            *l = RateLimiter::new(*safe);
+        }
+        self.active_limits = prepared.params.limits;
+        self.fade = [Fade::default(); CH];
+        self.blend = false;
+        self.settling = false;
+        self.mode = Mode::Idle;
+        self.fault = 0;
+        self.needs_reset = true;
+        self.status = Status {
+            mode: Mode::Idle,
+            fault: 0,
+            amplitude_limited: 0,
+            rate_limited: 0,
+            invalid_input: 0,
+        };
+    }
+
     /// Validates `params` for sample period `dt` and builds an idle controller.
     pub fn with_params(
         params: &ControllerParams<M::Params, CH>,
@@ -399,7 +479,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             self.blend = true;
         }
         self.settling = true;
-        self.prepared = prepared.clone();
+        self.prepared.copy_from(prepared);
         Ok(())
     }
 
@@ -594,22 +674,17 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         let prepared = &self.prepared;
         if self.needs_reset {
             self.model.reset(&prepared.model, input);
+        }
+        let raw = self.model.step(&prepared.model, input);
+        if core::mem::take(&mut self.needs_reset) {
             // The filter starts at rest at the model's first output (bumpless start).
-            let mut probe = self.model.clone();
-            let first = probe.step(&prepared.model, input);
-            for ((state, coeffs), u) in self
-                .filter
-                .iter_mut()
-                .zip(&prepared.params.filter)
-                .zip(first)
+            for ((state, coeffs), u) in self.filter.iter_mut().zip(&prepared.params.filter).zip(raw)
             {
                 *state = CascadeState::steady(coeffs, u);
             }
             self.fade = [Fade::default(); CH];
             self.blend = false;
-            self.needs_reset = false;
         }
-        let raw = self.model.step(&prepared.model, input);
         // The first step after a swap restarts the filters at rest at the model's output.
         let blend = core::mem::take(&mut self.blend);
         let mut out = [0.0; CH];

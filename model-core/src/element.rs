@@ -81,6 +81,13 @@ pub struct ElementLaw {
 }
 
 impl ElementLaw {
+    /// Every field zero bits (the smoothing velocity too: not a law to evaluate), a place
+    /// holder in zero-initialised blanks.
+    pub const ZERO: Self = Self {
+        friction_velocity: 0.0,
+        ..Self::NONE
+    };
+
     /// No element: every parameter zero (no force).
     pub const NONE: Self = Self {
         stiffness: 0.0,

@@ -827,18 +827,29 @@ impl BoardParams {
 /// The page words of `p` (counts as integral `f32`).
 pub fn to_words(p: &BoardParams) -> [f32; WORDS] {
     let mut out = [0.0; WORDS];
+    for_each_word(p, |k, v| {
+        if let Some(o) = out.get_mut(k) {
+            *o = v;
+        }
+    });
+    out
+}
+
+/// Calls `f(k, word)` for each page word of `p` in order (counts as integral `f32`), with
+/// no array of them (on the board, where each is kilobytes).
+pub fn for_each_word(p: &BoardParams, mut f: impl FnMut(usize, f32)) {
     let mut copy = *p;
     let mut k = 0;
     copy.visit(&mut |_, w| {
-        if let Some(o) = out.get_mut(k) {
-            *o = match w {
+        f(
+            k,
+            match w {
                 WordMut::Real(v) => *v,
                 WordMut::Count(v) => *v as f32,
-            };
-        }
+            },
+        );
         k += 1;
     });
-    out
 }
 
 /// The parameter set of page `words`, each word checked against its item (see the module

@@ -104,13 +104,16 @@ use crate::element::ElementLaw;
 use crate::linalg::Lu;
 use crate::params::{check_all, Field, ParamError, Range};
 use crate::velocity::{VelocityEstimator, VelocityFilterCoefficients};
-use crate::MAX_CHANNELS;
 
 /// Largest number of degrees of freedom of a substructure.
 pub const MAX_DOF: usize = 6;
+/// Most actuator channels a substructure serves (the board's: a hub-coupled rig's four
+/// hubs). Fewer than a controller's [`crate::MAX_CHANNELS`]: every state costs the board
+/// RAM in each copy of the coefficients and in the `f64` preparation.
+pub const MAX_SUBSTRUCTURE_CHANNELS: usize = 4;
 /// Largest number of discrete states: positions and velocities of every DOF plus one
 /// interface-compliance state per channel.
-pub const MAX_STATES: usize = 2 * MAX_DOF + MAX_CHANNELS;
+pub const MAX_STATES: usize = 2 * MAX_DOF + MAX_SUBSTRUCTURE_CHANNELS;
 
 /// Largest number of nonlinear elements of a substructure.
 pub const MAX_ELEMENTS: usize = 6;
@@ -230,6 +233,16 @@ pub struct SubstructureParams<const CH: usize> {
 }
 
 impl<const CH: usize> SubstructureParams<CH> {
+    /// As [`SubstructureParams::zeroed`] with `dof` 0, [`Causality::Admittance`] and
+    /// [`ElementLaw::ZERO`] laws: every field zero bits (not a valid set), a place holder.
+    pub const ZERO: Self = Self {
+        elements: [SubstructureElement {
+            law: ElementLaw::ZERO,
+            ..SubstructureElement::NONE
+        }; MAX_ELEMENTS],
+        ..Self::zeroed(0, Causality::Admittance)
+    };
+
     /// All-zero parameters with `dof` degrees of freedom and the given causality; fill in the
     /// matrices before use.
     pub const fn zeroed(dof: u32, causality: Causality) -> Self {
@@ -302,7 +315,7 @@ impl<const CH: usize> SubstructureParams<CH> {
         if !(1..=MAX_DOF).contains(&n) {
             return Err(ParamError::OutOfRange(Field::SubstructureDof));
         }
-        if CH > MAX_CHANNELS {
+        if CH > MAX_SUBSTRUCTURE_CHANNELS {
             return Err(ParamError::OutOfRange(Field::SubstructureInterface));
         }
         let causality = self
@@ -485,20 +498,21 @@ pub struct SubstructurePrepared<const CH: usize> {
 }
 
 impl<const CH: usize> SubstructurePrepared<CH> {
-    /// All coefficients zero (no states): a place to prepare into.
+    /// All coefficients zero (no states), every field zero bits (the discriminant-0
+    /// causality, no law): a place to prepare into.
     pub const ZERO: Self = Self {
         states: 0,
-        causality: Causality::Impedance,
+        causality: Causality::Admittance,
         delta: [[0.0; MAX_STATES]; MAX_STATES],
         gamma: [[[0.0; CH]; MAX_STATES]; INPUT_KINDS],
         c: [[0.0; MAX_STATES]; CH],
         d: [[[0.0; CH]; CH]; INPUT_KINDS],
         velocity: VelocityFilterCoefficients {
             inv_dt: 0.0,
-            gain: 1.0,
+            gain: 0.0,
         },
         elements: 0,
-        laws: [ElementLaw::NONE; MAX_ELEMENTS],
+        laws: [ElementLaw::ZERO; MAX_ELEMENTS],
         linear: [[0.0; 2]; MAX_ELEMENTS],
         gamma_r: [[0.0; MAX_ELEMENTS]; MAX_STATES],
         d_r: [[0.0; MAX_ELEMENTS]; CH],
@@ -1083,6 +1097,17 @@ pub struct SubstructureModel<const CH: usize> {
     road_rate: [VelocityEstimator; CH],
 }
 
+impl<const CH: usize> SubstructureModel<CH> {
+    /// At rest, every estimator fresh (as [`Model::new`]; all zero bits).
+    pub const ZERO: Self = Self {
+        state: [0.0; MAX_STATES],
+        remainder: [0.0; MAX_ELEMENTS],
+        signal_rate: [VelocityEstimator::new(); CH],
+        signal_acceleration: [VelocityEstimator::new(); CH],
+        road_rate: [VelocityEstimator::new(); CH],
+    };
+}
+
 /// The elements' remainders `F(x, v) − k x − c̄ v` at their motion `[x_0, v_0, x_1, …]`.
 #[inline]
 fn remainders<const CH: usize>(
@@ -1155,13 +1180,7 @@ impl<const CH: usize> Model<CH> for SubstructureModel<CH> {
     }
 
     fn new() -> Self {
-        Self {
-            state: [0.0; MAX_STATES],
-            remainder: [0.0; MAX_ELEMENTS],
-            signal_rate: [VelocityEstimator::new(); CH],
-            signal_acceleration: [VelocityEstimator::new(); CH],
-            road_rate: [VelocityEstimator::new(); CH],
-        }
+        Self::ZERO
     }
 
     fn reset(&mut self, _prepared: &Self::Prepared, _input: &ModelInput<CH>) {

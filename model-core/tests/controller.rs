@@ -293,6 +293,37 @@ fn external_trip_drives_safe_state() {
     assert_eq!(c.status().fault, 0x80);
 }
 
+/// `install` in place is `new`: a controller that ran, filtered and latched a fault, given
+/// another set in place, steps bit for bit as a fresh one of that set, from Idle through a
+/// Start (the board swaps configurations this way, without a kilobyte temporary).
+#[test]
+fn install_in_place_is_a_fresh_controller() {
+    let mut other = tyre_params();
+    let section = section_with_gain(0.9, 0.3, 0.5, 1.0, 1.2);
+    other.filter = [CascadeCoefficients::from_sections(&[section]).unwrap(); 4];
+    other.safe_demand = [900.0; 4];
+    other.model.tyre[2].stiffness = 1.5e5;
+    let prepared = model_core::PreparedParams::<TyreModel<4>, 4>::new(&other, DT).unwrap();
+    let mut used = Controller::<TyreModel<4>, 4>::with_params(&tyre_params(), DT).unwrap();
+    used.start();
+    for k in 0..300 {
+        used.step(&road(0.02 * (k as f32 * 0.05).sin()));
+    }
+    used.trip(0x40);
+    used.step(&road(0.01));
+    used.install(&prepared);
+    let mut fresh = Controller::<TyreModel<4>, 4>::new(prepared);
+    for k in 0..400 {
+        if k == 20 {
+            assert!(used.start() && fresh.start());
+        }
+        let input = road(0.015 * (k as f32 * 0.07).sin());
+        let (a, b) = (used.step(&input), fresh.step(&input));
+        assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "step {k}");
+        assert_eq!(used.status(), fresh.status(), "step {k}");
+    }
+}
+
 fn any_f32() -> impl Strategy<Value = f32> {
     prop_oneof![
         any::<u32>().prop_map(f32::from_bits),
