@@ -141,6 +141,21 @@ pub struct Counters {
     pub tx_dropped: u32,
 }
 
+impl Counters {
+    /// All zero (as `Default`, usable in a `const`).
+    pub const ZERO: Self = Self {
+        measurements: 0,
+        steps: 0,
+        missed: 0,
+        late: 0,
+        malformed: 0,
+        foreign: 0,
+        comm_timeouts: 0,
+        rejected: 0,
+        tx_dropped: 0,
+    };
+}
+
 /// What the status frame carries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StatusReport {
@@ -248,29 +263,68 @@ impl Application {
         counter_modulus: u32,
         candidate: &mut crate::calibration::Candidate,
     ) -> Result<Self, ParamError> {
+        let mut app = Self::BLANK;
+        app.init_in(counter_modulus, candidate)?;
+        Ok(app)
+    }
+
+    /// No controller yet (a [`Controller::BLANK`]) and every field zero: all zero bits, so
+    /// a static one costs no flash. [`Application::init_in`] makes it the default one.
+    pub const BLANK: Self = Self {
+        controller: Controller::BLANK,
+        input: ModelInput {
+            position: [0.0; CHANNELS],
+            force: [0.0; CHANNELS],
+            road: [0.0; CHANNELS],
+            speed: 0.0,
+        },
+        counter_modulus: 0,
+        last_counter: None,
+        demand_counter: 0,
+        watchdog: Watchdog::new(0),
+        status_period: 0,
+        steps_since_status: 0,
+        amplitude_limited: 0,
+        rate_limited: 0,
+        counters: Counters::ZERO,
+        calibration_source: crate::calibration::Source::Defaults,
+        sample_rate_hz: 0,
+        gathered: 0,
+        gathering: None,
+        gathering_ticks: 0,
+    };
+
+    /// Makes this (a [`Application::BLANK`], or any) the application [`Application::new`]
+    /// builds, in place (the board's static: no kilobyte application on the stack), the
+    /// defaults prepared in `candidate`. On error nothing runs the defaults.
+    pub fn init_in(
+        &mut self,
+        counter_modulus: u32,
+        candidate: &mut crate::calibration::Candidate,
+    ) -> Result<(), ParamError> {
         crate::calibration::init_reference();
         *candidate.prepared.params_mut() = default_params();
         candidate.prepared.prepare(DT)?;
-        let controller = Controller::new(&candidate.prepared)
+        self.controller = Controller::BLANK;
+        self.controller
+            .swap(&candidate.prepared)
             .map_err(|_| ParamError::OutOfRange(model_core::params::Field::ModelKind))?;
-        Ok(Self {
-            controller,
-            input: ModelInput::default(),
-            counter_modulus: counter_modulus.max(2),
-            last_counter: None,
-            demand_counter: 0,
-            watchdog: Watchdog::new(WATCHDOG_SAMPLES),
-            status_period: STATUS_PERIOD_SAMPLES,
-            steps_since_status: 0,
-            amplitude_limited: 0,
-            rate_limited: 0,
-            counters: Counters::default(),
-            calibration_source: crate::calibration::Source::Defaults,
-            sample_rate_hz: SAMPLE_RATE_HZ as u16,
-            gathered: 0,
-            gathering: None,
-            gathering_ticks: 0,
-        })
+        self.input = ModelInput::default();
+        self.counter_modulus = counter_modulus.max(2);
+        self.last_counter = None;
+        self.demand_counter = 0;
+        self.watchdog = Watchdog::new(WATCHDOG_SAMPLES);
+        self.status_period = STATUS_PERIOD_SAMPLES;
+        self.steps_since_status = 0;
+        self.amplitude_limited = 0;
+        self.rate_limited = 0;
+        self.counters = Counters::ZERO;
+        self.calibration_source = crate::calibration::Source::Defaults;
+        self.sample_rate_hz = SAMPLE_RATE_HZ as u16;
+        self.gathered = 0;
+        self.gathering = None;
+        self.gathering_ticks = 0;
+        Ok(())
     }
 
     /// The running number of channels.
@@ -313,26 +367,25 @@ impl Application {
         self.calibration_source
     }
 
-    /// Boot: runs the stored page `words` (already checked by [`crate::store::Store::load`],
-    /// prepared in `candidate`) and records `source`; a page that does not install leaves
+    /// Boot: runs the stored page in `candidate.words` when `source` is
+    /// [`crate::calibration::Source::Stored`] (already checked by
+    /// [`crate::store::Store::load`]; prepared in `candidate`) and records `source`; a page that does not install leaves
     /// the defaults running and records [`crate::calibration::Source::Refused`]. Returns the
     /// source recorded.
     pub fn boot_with(
         &mut self,
         source: crate::calibration::Source,
-        words: Option<&[u32; crate::calibration::SLOTS]>,
         candidate: &mut crate::calibration::Candidate,
     ) -> crate::calibration::Source {
-        self.calibration_source = match words {
-            Some(words) => {
-                match crate::calibration::decode_page_into(words, &mut candidate.prepared) {
-                    Ok(settings) if self.install(&candidate.prepared, settings) == code::OK => {
-                        source
-                    }
+        let c = candidate;
+        self.calibration_source = match source {
+            crate::calibration::Source::Stored => {
+                match crate::calibration::decode_page_into(&c.words, &mut c.prepared) {
+                    Ok(settings) if self.install(&c.prepared, settings) == code::OK => source,
                     _ => crate::calibration::Source::Refused,
                 }
             }
-            None => source,
+            _ => source,
         };
         self.calibration_source
     }

@@ -144,19 +144,25 @@ pub const DEFAULT_SETTINGS: Settings = Settings {
 /// The page's slots for `params` and `settings` (values as `f32`).
 pub fn page_values(p: &Params, s: &Settings) -> [f32; SLOTS] {
     let mut out = [0.0; SLOTS];
-    for (o, v) in out.iter_mut().skip(SETTINGS_SLOTS).zip(page::to_words(p)) {
-        *o = v;
-    }
+    for_each_slot(p, s, |slot, v| {
+        if let Some(o) = out.get_mut(slot) {
+            *o = f32::from_bits(v);
+        }
+    });
+    out
+}
+
+/// Calls `put(slot, bits)` for each slot of the page of `p` and `s`, with no array of
+/// them (the board's paths: each page is kilobytes).
+fn for_each_slot(p: &Params, s: &Settings, mut put: impl FnMut(usize, u32)) {
     for (slot, v) in [
         (SLOT_STATUS_PERIOD, s.status_period),
         (SLOT_WATCHDOG, s.watchdog),
         (SLOT_SAMPLE_RATE, s.sample_rate_hz),
     ] {
-        if let Some(o) = out.get_mut(slot) {
-            *o = f32::from(v);
-        }
+        put(slot, f32::from(v).to_bits());
     }
-    out
+    page::for_each_word(p, |k, v| put(SETTINGS_SLOTS + k, v.to_bits()));
 }
 
 /// The reference page (XCP page 1): the build's defaults, read-only.
@@ -175,16 +181,29 @@ pub static WORKING: [AtomicU32; SLOTS] = [const { AtomicU32::new(0) }; SLOTS];
 /// Fills both pages with the build's defaults (at start, before anything reads them).
 pub fn init_pages() {
     init_reference();
-    for (w, v) in WORKING.iter().zip(reference_words()) {
-        w.store(v, Ordering::Relaxed);
+    for (w, r) in WORKING.iter().zip(&REFERENCE) {
+        w.store(r.load(Ordering::Relaxed), Ordering::Relaxed);
     }
 }
 
 /// Fills the reference page ([`REFERENCE`]) with the build's defaults: idempotent (always
 /// the same words), done by [`crate::application::Application::new`].
 pub fn init_reference() {
-    for (r, v) in REFERENCE.iter().zip(reference_words()) {
-        r.store(v, Ordering::Relaxed);
+    for_each_slot(&default_params(), &DEFAULT_SETTINGS, |slot, v| {
+        if let Some(r) = REFERENCE.get(slot) {
+            r.store(v, Ordering::Relaxed);
+        }
+    });
+}
+
+/// Copies page `page` ([`WORKING`] or [`REFERENCE`]) into `out`, in place.
+pub fn load_page(page: Page, out: &mut [u32; SLOTS]) {
+    let words = match page {
+        Page::Working => &WORKING,
+        Page::Reference => &REFERENCE,
+    };
+    for (o, w) in out.iter_mut().zip(words) {
+        *o = w.load(Ordering::Relaxed);
     }
 }
 
@@ -235,9 +254,11 @@ pub fn read(page: Page, offset: usize, out: &mut [u8]) {
 /// Writes the running `params` and `settings` into [`WORKING`] (at start and after a change
 /// made by a Command frame, so that both paths show the same values).
 pub fn mirror(p: &Params, s: &Settings) {
-    for (w, v) in WORKING.iter().zip(page_values(p, s)) {
-        w.store(v.to_bits(), Ordering::Relaxed);
-    }
+    for_each_slot(p, s, |slot, v| {
+        if let Some(w) = WORKING.get(slot) {
+            w.store(v, Ordering::Relaxed);
+        }
+    });
 }
 
 /// The CommandAck code of a refused page word.
@@ -373,10 +394,15 @@ pub struct Candidate {
 }
 
 impl Candidate {
-    /// Empty (not ready).
+    /// Empty (not ready). All zero bits: the static one is zero-initialised RAM (`.bss`),
+    /// not a 13 KB image in flash copied at start.
     pub const NEW: Self = Self {
         prepared: Prepared::BLANK,
-        settings: DEFAULT_SETTINGS,
+        settings: Settings {
+            status_period: 0,
+            watchdog: 0,
+            sample_rate_hz: 0,
+        },
         words: [0; SLOTS],
     };
 }
@@ -389,6 +415,9 @@ pub fn host_candidate() -> &'static mut Candidate {
 }
 
 /// Checks one slot's value against its item: the CommandAck code of the reason if refused.
+/// Out of line: looking the item up walks a scratch parameter set (kilobytes), whose frame
+/// must be gone before a caller goes on to prepare the whole set.
+#[inline(never)]
 pub fn check_slot(slot: usize, value: f32) -> Result<(), u8> {
     let item = item(slot).ok_or(code::UNKNOWN_INDEX)?;
     page::check(&item, slot, value).map_err(word_code)
@@ -404,12 +433,17 @@ pub fn validate_write(
     data: &[u8],
     out: &mut Candidate,
 ) -> Result<(), u8> {
+    out.words = *words;
+    validate_write_in_place(offset, data, out)
+}
+
+/// As [`validate_write`] on the page `out.words` already holds (no copy of it).
+pub fn validate_write_in_place(offset: usize, data: &[u8], out: &mut Candidate) -> Result<(), u8> {
     out.prepared.params_mut();
     let end = offset.checked_add(data.len()).ok_or(code::OUT_OF_RANGE)?;
     if end > PAGE_BYTES || data.is_empty() {
         return Err(code::OUT_OF_RANGE);
     }
-    out.words = *words;
     let words = &mut out.words;
     for (k, &b) in data.iter().enumerate() {
         let at = offset + k;

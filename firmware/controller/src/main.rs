@@ -67,8 +67,9 @@ mod app {
 
     #[shared]
     struct Shared {
-        /// The application state (controller, counters, watchdog).
-        app: Application,
+        /// The application state (controller, counters, watchdog): kilobytes, built in
+        /// place in a static by `init` (not moved through its frame).
+        app: App,
         /// The transmit half of the transport.
         tx: port::Tx,
         /// The XCP slave; `None` when the build has no XCP secret.
@@ -120,9 +121,9 @@ mod app {
     /// The application behind its RTIC lock, for `mil_firmware::xcp::Target`.
     struct Locked<'a, M>(&'a mut M);
 
-    impl<M: rtic::Mutex<T = Application>> AppAccess for Locked<'_, M> {
+    impl<M: rtic::Mutex<T = App>> AppAccess for Locked<'_, M> {
         fn with<R>(&mut self, f: impl FnOnce(&mut Application) -> R) -> R {
-            self.0.lock(f)
+            self.0.lock(|a| f(a))
         }
     }
 
@@ -135,7 +136,13 @@ mod app {
         tick_info: port::TickInfo,
     }
 
-    #[init(local = [candidate: calibration::Candidate = calibration::Candidate::NEW])]
+    /// The shared application: a reference to `init`'s static place.
+    type App = &'static mut Application;
+
+    #[init(local = [
+        candidate: calibration::Candidate = calibration::Candidate::NEW,
+        app: Application = Application::BLANK,
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let candidate = cx.local.candidate;
         // The control-path clock: SysTick on the board, TIM5 in QEMU (`clock` module).
@@ -148,9 +155,8 @@ mod app {
         let clock = hw.clock;
         #[cfg(feature = "qemu")]
         let calibration = clock::Calibration::measure(&clock);
-        let mut app = match Application::new_in(COUNTER_MODULUS, candidate) {
-            Ok(app) => app,
-            Err(_) => crate::fatal::stop(format_args!("default parameters rejected")),
+        let Some(app) = new_app(cx.local.app, candidate) else {
+            crate::fatal::stop(format_args!("default parameters rejected"));
         };
         // The stored calibration, if one passes its checks; else the build's defaults (the
         // working page then mirrors what runs).
@@ -158,8 +164,8 @@ mod app {
             crate::fatal::stop(format_args!("calibration store range refused"));
         };
         // The flash answers at once (board: blocking; QEMU: RAM), so the boot completes here.
-        let source = store::complete(store::boot(&mut app, &mut store, candidate));
-        crate::log!("calibration at boot: {}", source.map_or(255, |s| s as u8));
+        let source = boot(app, &mut store, candidate);
+        crate::log!("calibration at boot: {}", source as u8);
         let _ = source; // logged on the board only
         let (sender, receiver) = make_channel!(Request, QUEUE);
         if configure::spawn(receiver).is_err() {
@@ -229,6 +235,36 @@ mod app {
         )
     }
 
+    /// The application with the build's defaults, written into `init`'s static `place`.
+    /// Out of line, as [`boot`]: their frames (a kilobyte parameter set each) follow one
+    /// another on the stack instead of adding up in `init`'s.
+    #[inline(never)]
+    fn new_app(place: App, candidate: &mut calibration::Candidate) -> Option<App> {
+        place.init_in(COUNTER_MODULUS, candidate).ok()?;
+        Some(place)
+    }
+
+    /// The stored calibration into `app` ([`store::boot`], its two halves one after the
+    /// other: the load's buffers are off the stack before the page is prepared).
+    fn boot(
+        app: &mut Application,
+        store: &mut Store<port::StoreFlash>,
+        candidate: &mut calibration::Candidate,
+    ) -> calibration::Source {
+        let source = load_stored(store, &mut candidate.words);
+        store::boot_loaded(app, source, candidate)
+    }
+
+    /// The stored page into `words` ([`Store::load_into`]); a flash that waits counts as
+    /// unreadable (the flash answers at once: board blocking, QEMU RAM).
+    #[inline(never)]
+    fn load_stored(
+        store: &mut Store<port::StoreFlash>,
+        words: &mut [u32; calibration::SLOTS],
+    ) -> calibration::Source {
+        store::complete(store.load_into(words)).unwrap_or(calibration::Source::Unreadable)
+    }
+
     /// Sleeps between interrupts. On the board, about once a second (every 4096 wake-ups)
     /// it refreshes the stack high-water mark, preemptible by every task; the QEMU build
     /// measures it once, for the final report.
@@ -249,7 +285,7 @@ mod app {
     /// copy of it for the DAQ task (dropped and counted when the DAQ task is behind). Runs in
     /// the receive task after the demand frame was queued.
     fn after_step(
-        app: &mut impl rtic::Mutex<T = Application>,
+        app: &mut impl rtic::Mutex<T = App>,
         daq: &mut Sender<'static, StepSample, DAQ_QUEUE>,
     ) {
         app.lock(|a| a.record_step());
@@ -265,7 +301,7 @@ mod app {
         handled: link::Handled,
         sender: &mut Sender<'static, Request, QUEUE>,
         xcp: &mut Sender<'static, XcpRequest, XCP_QUEUE>,
-        app: &mut impl rtic::Mutex<T = Application>,
+        app: &mut impl rtic::Mutex<T = App>,
         tx: &mut impl rtic::Mutex<T = port::Tx>,
     ) {
         match handled {
@@ -295,7 +331,7 @@ mod app {
         xcp: &mut Sender<'static, XcpRequest, XCP_QUEUE>,
         frame: mil_frames::RawFrame,
         link: Link,
-        app: &mut impl rtic::Mutex<T = Application>,
+        app: &mut impl rtic::Mutex<T = App>,
     ) {
         match xcp.try_send(XcpRequest { frame, link }) {
             Ok(()) => {}
@@ -606,11 +642,10 @@ mod app {
             // while the controller does not run): the working page to flash, then the slave
             // clears its pending bit and sends EV_STORE_CAL.
             if slave.lock(|s| s.as_ref().is_some_and(Slave::store_pending)) {
-                let valid = |words: &[u32; calibration::SLOTS]| {
-                    candidate
-                        .lock(|c| calibration::decode_page_into(words, &mut c.prepared).is_ok())
-                };
-                let result = store::store_working(store, valid).await;
+                let result = candidate.lock(|c| {
+                    let valid = working_valid(c);
+                    store_now(store, &c.words, valid)
+                });
                 crate::log!(
                     "calibration store: {}",
                     result.map_or_else(|e| e as u8, |()| 0)
@@ -625,11 +660,35 @@ mod app {
         }
     }
 
+    /// Stores the working page ([`store::store_working`]) to its end here: the flash
+    /// answers at once (board: blocking; QEMU: RAM), and the store's kilobytes of buffers
+    /// then live on the stack for the store only, not in the XCP task's future (a static,
+    /// for good). A flash that waits counts as a flash error.
+    /// `words` (a copy of the working page; `valid`: it passed [`working_valid`]) is the
+    /// page stored ([`store::store_words`]).
+    #[inline(never)]
+    fn store_now(
+        store: &mut Store<port::StoreFlash>,
+        words: &[u32; calibration::SLOTS],
+        valid: bool,
+    ) -> Result<(), store::StoreError> {
+        store::complete(store::store_words(store, words, |_| valid))
+            .unwrap_or(Err(store::StoreError::Flash))
+    }
+
+    /// The working page copied into the candidate and validated there as a whole (before
+    /// the store, whose buffers then do not share the stack with the preparation's).
+    #[inline(never)]
+    fn working_valid(c: &mut calibration::Candidate) -> bool {
+        calibration::load_page(calibration::Page::Working, &mut c.words);
+        calibration::decode_page_into(&c.words, &mut c.prepared).is_ok()
+    }
+
     /// One XCP command through the slave.
     fn handle_xcp<P: mil_xcp::Platform>(
         request: &XcpRequest,
         slave: &mut impl rtic::Mutex<T = Option<Slave>>,
-        app: &mut impl rtic::Mutex<T = Application>,
+        app: &mut impl rtic::Mutex<T = App>,
         candidate: &mut calibration::Candidate,
         platform: &mut P,
         out: &mut Responses,

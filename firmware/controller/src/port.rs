@@ -350,8 +350,10 @@ mod qemu {
         pub store_flash: StoreFlash,
     }
 
-    /// The QEMU build's calibration storage: 2 pages of 4 KB in RAM.
-    pub type StoreFlash = mil_firmware::store::RamFlash<2, 4096>;
+    /// The QEMU build's calibration storage: 2 pages of 4 KB in RAM, in a static (moved
+    /// by reference: 8 KB by value through `init`'s frame would set the stack's
+    /// high-water mark).
+    pub type StoreFlash = &'static mut mil_firmware::store::RamFlash<2, 4096>;
 
     /// Its range: all of it.
     pub const STORE_RANGE: core::ops::Range<u32> = 0..8192;
@@ -409,7 +411,9 @@ mod qemu {
                 period_us: f64::from(timer_counts) / timer_per_count / QEMU_COUNT_HZ * 1.0e6,
             },
             clock,
-            store_flash: StoreFlash::new(),
+            store_flash: cortex_m::singleton!(
+                : mil_firmware::store::RamFlash<2, 4096> = mil_firmware::store::RamFlash::new()
+            )?,
         })
     }
 }

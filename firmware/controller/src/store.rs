@@ -215,6 +215,16 @@ impl<F: NorFlash> Store<F> {
         }
     }
 
+    /// As [`Store::load`], the page into `words` (in place; written only when stored):
+    /// the boot source it gives ([`Source::Stored`] when `words` holds the stored page).
+    pub async fn load_into(&mut self, words: &mut [u32; SLOTS]) -> Source {
+        let loaded = self.load().await;
+        if let Loaded::Stored(w) = &loaded {
+            *words = *w;
+        }
+        loaded.source()
+    }
+
     /// The stored record, checked for format, layout and CRC (see [`Loaded`]).
     pub async fn load(&mut self) -> Loaded {
         let mut buffer = [0u8; BUFFER_BYTES];
@@ -238,12 +248,19 @@ pub async fn boot<F: NorFlash>(
     store: &mut Store<F>,
     candidate: &mut calibration::Candidate,
 ) -> Source {
-    let loaded = store.load().await;
-    let words = match &loaded {
-        Loaded::Stored(words) => Some(words),
-        _ => None,
-    };
-    let source = app.boot_with(loaded.source(), words, candidate);
+    let source = store.load_into(&mut candidate.words).await;
+    boot_loaded(app, source, candidate)
+}
+
+/// The second half of [`boot`], once [`Store::load_into`] has read the store into
+/// `candidate.words` and given `source` (the board runs the two halves one after the
+/// other, so that the load's buffers and the preparation's never share the stack).
+pub fn boot_loaded(
+    app: &mut crate::application::Application,
+    source: Source,
+    candidate: &mut calibration::Candidate,
+) -> Source {
+    let source = app.boot_with(source, candidate);
     app.mirror_to_working_page();
     calibration::store_u32(meas::CAL_SOURCE, source as u32);
     source
@@ -257,7 +274,16 @@ pub async fn store_working<F: NorFlash>(
     store: &mut Store<F>,
     valid: impl FnOnce(&[u32; SLOTS]) -> bool,
 ) -> Result<(), StoreError> {
-    let result = store.save(&calibration::working_words(), valid).await;
+    store_words(store, &calibration::working_words(), valid).await
+}
+
+/// As [`store_working`], of the page `words` (a copy of the working page).
+pub async fn store_words<F: NorFlash>(
+    store: &mut Store<F>,
+    words: &[u32; SLOTS],
+    valid: impl FnOnce(&[u32; SLOTS]) -> bool,
+) -> Result<(), StoreError> {
+    let result = store.save(words, valid).await;
     note_store(result);
     result
 }

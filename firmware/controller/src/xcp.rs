@@ -346,9 +346,9 @@ impl<A: AppAccess> Calibration for Target<'_, A> {
     fn copy_reference_to_working(&mut self) -> Result<(), Rejected> {
         let copy = |t: &mut Self| {
             t.candidate.prepared.params_mut();
-            t.candidate.words = calibration::reference_words();
-            t.candidate.settings =
-                calibration::decode_page_into(&t.candidate.words, &mut t.candidate.prepared)?;
+            let c = &mut *t.candidate;
+            calibration::load_page(calibration::Page::Reference, &mut c.words);
+            c.settings = calibration::decode_page_into(&c.words, &mut c.prepared)?;
             t.commit()
         };
         noted(copy(self).map_err(rejection))
@@ -385,7 +385,8 @@ impl<A: AppAccess> Target<'_, A> {
     /// The working page with `data` written at byte `offset`, validated as a whole page
     /// into the candidate (CommandAck code of the refusal). Changes nothing else.
     fn validate(&mut self, offset: usize, data: &[u8]) -> Result<(), u8> {
-        calibration::validate_write(&calibration::working_words(), offset, data, self.candidate)
+        calibration::load_page(calibration::Page::Working, &mut self.candidate.words);
+        calibration::validate_write_in_place(offset, data, self.candidate)
     }
 
     /// Makes the validated change in the candidate: while the controller runs the working
@@ -406,12 +407,9 @@ impl<A: AppAccess> Target<'_, A> {
     /// Switches the controller to `page` as one transaction: that page's set is validated
     /// and installed, or (CommandAck code) nothing changes and the ECU page stays.
     fn select_page(&mut self, page: Page) -> Result<(), u8> {
-        let words = match page {
-            Page::Working => calibration::working_words(),
-            Page::Reference => calibration::reference_words(),
-        };
-        self.candidate.settings =
-            calibration::decode_page_into(&words, &mut self.candidate.prepared)?;
+        let c = &mut *self.candidate;
+        calibration::load_page(board_page(page), &mut c.words);
+        c.settings = calibration::decode_page_into(&c.words, &mut c.prepared)?;
         self.install()?;
         self.ecu_page = page;
         Ok(())
