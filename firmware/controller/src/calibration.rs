@@ -286,7 +286,7 @@ pub fn schedule(p: &Params, s: &Settings) -> Schedule {
         Some(ModelKind::Substructure) => Schedule::substructure(channels, forces, rate),
         _ => Schedule::tyre(channels, rate),
     };
-    one_bus.on_buses(channels.clamp(1, 2))
+    one_bus.on_buses(mil_frames::bus_load::buses_for(channels))
 }
 
 /// The bus rate the schedules are budgeted for (bit/s): classic CAN at 1 Mbit/s.

@@ -41,6 +41,11 @@ impl Clock {
         Self {}
     }
 
+    /// Another handle on the same counter (SysTick, started once), for a second task.
+    pub fn another(&self) -> Self {
+        Self {}
+    }
+
     /// The counter, fenced so that no memory access moves across the read.
     #[inline(always)]
     pub fn now(&self) -> u32 {

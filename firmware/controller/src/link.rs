@@ -14,6 +14,7 @@
 //! | XCP command (standard ID `config::XCP_COMMAND_ID`, default 0x7E0) | forwarded to the XCP task ([`crate::xcp`]), which answers on `config::XCP_RESPONSE_ID`; a build without an XCP secret counts it as foreign |
 //! | a frame outside the MiL range, an extended ID, or a board-to-host frame (Demand, Status, CommandAck: another board or an echo) | counted as foreign, ignored |
 
+use mil_frames::bus_load;
 use mil_frames::slcan::{self, SlcanLine};
 use mil_frames::{
     decode, encode_command_ack, encode_demand, encode_status, CommandAck, CommandKind, DecodeError,
@@ -545,6 +546,17 @@ pub fn slcan_line(frame: &RawFrame, out: &mut [u8]) -> Option<usize> {
     slcan::format_frame(frame, out).ok()
 }
 
+/// The bus (0: CAN1, 1: CAN2) the frame with ID `id` goes on while `channels` channels run
+/// (`mil_frames::bus_load::bus_of`: a channel's frames on bus `channel mod 2` when there
+/// are several; the heartbeat, acknowledgements and XCP on CAN1).
+pub fn bus_of_frame(id: u16, channels: u32) -> u8 {
+    let channels = u8::try_from(channels).unwrap_or(u8::MAX);
+    match LAYOUT.classify(id) {
+        Ok((kind, channel)) => bus_load::bus_of(kind, channel, bus_load::buses_for(channels)),
+        Err(_) => 0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -553,6 +565,36 @@ mod tests {
     use crate::params::code;
     use mil_frames::{encode_command, encode_measurement};
     use std::vec::Vec;
+
+    /// One channel: everything on CAN1. Several: each channel's frames on bus
+    /// `channel mod 2`, whatever their kind; the heartbeat, acknowledgements and XCP on CAN1.
+    #[test]
+    fn frames_take_their_channels_bus() {
+        use mil_frames::MessageKind;
+        let id = |kind, ch| LAYOUT.id(kind, ch).unwrap();
+        for ch in 0..4 {
+            assert_eq!(bus_of_frame(id(MessageKind::Demand, ch), 1), 0);
+            for channels in 2..=4 {
+                for kind in [
+                    MessageKind::Measurement,
+                    MessageKind::MeasurementAux,
+                    MessageKind::Demand,
+                ] {
+                    assert_eq!(
+                        bus_of_frame(id(kind, ch), channels),
+                        ch % 2,
+                        "{kind:?} {ch}"
+                    );
+                }
+            }
+        }
+        for channels in 1..=4 {
+            assert_eq!(bus_of_frame(id(MessageKind::Status, 0), channels), 0);
+            assert_eq!(bus_of_frame(id(MessageKind::CommandAck, 0), channels), 0);
+            assert_eq!(bus_of_frame(XCP_RESPONSE_ID, channels), 0);
+            assert_eq!(bus_of_frame(XCP_COMMAND_ID, channels), 0);
+        }
+    }
 
     #[derive(Default)]
     struct Sink {

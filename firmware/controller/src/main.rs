@@ -88,15 +88,17 @@ mod app {
         store: Store<port::StoreFlash>,
         #[cfg(not(feature = "qemu"))]
         can: Receive,
+        #[cfg(not(feature = "qemu"))]
+        can2: Receive<port::Rx2>,
         #[cfg(feature = "qemu")]
         uart: Receive,
         #[cfg(feature = "qemu")]
         aux: Aux,
     }
 
-    /// What the receive task owns.
-    pub struct Receive {
-        rx: port::Rx,
+    /// What a receive task owns (the board's CAN2 task: its own FIFO, `R`).
+    pub struct Receive<R = port::Rx> {
+        rx: R,
         sender: Sender<'static, Request, QUEUE>,
         xcp: Sender<'static, XcpRequest, XCP_QUEUE>,
         daq: Sender<'static, StepSample, DAQ_QUEUE>,
@@ -200,6 +202,15 @@ mod app {
             Local {
                 tick: hw.tick,
                 store,
+                #[cfg(not(feature = "qemu"))]
+                can2: Receive {
+                    rx: hw.rx2,
+                    sender: sender.clone(),
+                    xcp: xcp_sender.clone(),
+                    daq: daq_sender.clone(),
+                    clock: clock.another(),
+                    timings: Timings::default(),
+                },
                 #[cfg(not(feature = "qemu"))]
                 can: Receive {
                     rx: hw.rx,
@@ -344,6 +355,33 @@ mod app {
     #[cfg(not(feature = "qemu"))]
     #[task(binds = CAN1_RX0, priority = 3, shared = [app, tx], local = [can])]
     fn can_rx(cx: can_rx::Context) {
+        let can_rx::SharedResources {
+            mut app, mut tx, ..
+        } = cx.shared;
+        receive_frames(cx.local.can, |rx| rx.0.receive(), &mut app, &mut tx);
+    }
+
+    /// Board: CAN2 FIFO 0 holds frames (the odd channels of a configuration on both buses;
+    /// the same priority as CAN1's: never preempts it, nor it this).
+    #[cfg(not(feature = "qemu"))]
+    #[task(binds = CAN2_RX0, priority = 3, shared = [app, tx], local = [can2])]
+    fn can2_rx(cx: can2_rx::Context) {
+        let can2_rx::SharedResources {
+            mut app, mut tx, ..
+        } = cx.shared;
+        receive_frames(cx.local.can2, |rx| rx.0.receive(), &mut app, &mut tx);
+    }
+
+    /// The frames one bus's FIFO 0 holds, through the link layer (a sample completed by
+    /// the frame steps the controller and queues every channel's demand on its bus).
+    #[cfg(not(feature = "qemu"))]
+    #[inline(always)]
+    fn receive_frames<R>(
+        r: &mut Receive<R>,
+        mut receive: impl FnMut(&mut R) -> nb::Result<bxcan::Frame, bxcan::OverrunError>,
+        app: &mut impl rtic::Mutex<T = App>,
+        tx: &mut impl rtic::Mutex<T = port::Tx>,
+    ) {
         let Receive {
             rx,
             sender,
@@ -352,14 +390,11 @@ mod app {
             clock,
             timings,
             ..
-        } = cx.local.can;
-        let can_rx::SharedResources {
-            mut app, mut tx, ..
-        } = cx.shared;
+        } = r;
         let mut t0 = clock.now();
         // At most the FIFO's depth per interrupt, plus one (a frame arriving meanwhile).
         for _ in 0..4 {
-            match rx.0.receive() {
+            match receive(rx) {
                 Ok(frame) => {
                     let received = clock.now();
                     let mut stamps = [received; 4];
@@ -376,10 +411,10 @@ mod app {
                         timings.record(t0, received, stamps);
                         // After the demand frame is queued: never delays it.
                         let [.., queued] = stamps;
-                        after_step(&mut app, daq);
+                        after_step(app, daq);
                         timings.post.record(clock::elapsed(queued, clock.now()));
                     }
-                    dispatch(handled, sender, xcp, &mut app, &mut tx);
+                    dispatch(handled, sender, xcp, app, tx);
                     if timings.path.count % 20_000 == 1 {
                         let used = clock::stack_used_cached();
                         crate::log!(

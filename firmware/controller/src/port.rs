@@ -5,7 +5,7 @@
 //! | | board (default) | QEMU (`--features qemu`) |
 //! | --- | --- | --- |
 //! | clocks | HSE 8 MHz → PLL → 168 MHz (APB1 42 MHz) | HSI 16 MHz (QEMU emulates no PLL) |
-//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX), 1 Mbit/s, FIFO0 interrupt `CAN1_RX0`; XCP on the same bus | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes; XCP also on USART2 (PA2/PA3, QEMU `-serial` 1, interrupt `USART2`) |
+//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX) and CAN2 (PB13 TX / PB12 RX), 1 Mbit/s, FIFO0 interrupts `CAN1_RX0` and `CAN2_RX0`; a configuration of several channels puts channel `c` on CAN `c mod 2` (`mil_firmware::link::bus_of_frame`), everything else and XCP on CAN1 | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes; XCP also on USART2 (PA2/PA3, QEMU `-serial` 1, interrupt `USART2`) |
 //! | tick | TIM2 at the sample rate (2 kHz) | TIM2 every [`QEMU_TICK_US`](mil_firmware::config::QEMU_TICK_US) of QEMU time; stopped for good once the watchdog is switched off |
 //! | control-path clock ([`crate::clock::Clock`]) | SysTick, core cycles (started by `main`) | TIM5, prescaler 0: 1 GHz of QEMU virtual time, one count per instruction at `-icount shift=0` (started here) |
 
@@ -23,7 +23,7 @@ pub use board::*;
 #[cfg(feature = "qemu")]
 pub use qemu::*;
 
-/// The board: bxCAN on CAN1, TIM2 at the sample rate.
+/// The board: bxCAN on CAN1 and CAN2, TIM2 at the sample rate.
 #[cfg(not(feature = "qemu"))]
 mod board {
     use core::sync::atomic::{AtomicU32, Ordering};
@@ -31,10 +31,10 @@ mod board {
     use bxcan::filter::Mask32;
     use bxcan::{Fifo, Interrupt, StandardId};
     use mil_firmware::config::{SAMPLE_RATE_HZ, XCP_COMMAND_ID};
-    use mil_firmware::link::{Transport, LAYOUT};
+    use mil_firmware::link::{bus_of_frame, Transport, LAYOUT};
     use mil_frames::RawFrame;
     use stm32f4xx_hal::can::Can;
-    use stm32f4xx_hal::pac::{self, CAN1, TIM2};
+    use stm32f4xx_hal::pac::{self, CAN1, CAN2, TIM2};
     use stm32f4xx_hal::prelude::*;
     use stm32f4xx_hal::rcc::Config;
     use stm32f4xx_hal::timer::{CounterHz, Event, Flag};
@@ -52,21 +52,30 @@ mod board {
     /// `BTR = (SJW-1) << 24 | (BS2-1) << 20 | (BS1-1) << 16 | (BRP-1)`.
     pub const CAN_BTR: u32 = (1 << 20) | (10 << 16) | 2;
 
+    /// The first of CAN2's filter banks (CAN1 keeps 0..14 of the 28).
+    const CAN2_FIRST_BANK: u8 = 14;
+
     /// Frames of lower priority replaced in a busy mailbox by a higher-priority one (lost).
     pub static TX_DISPLACED: AtomicU32 = AtomicU32::new(0);
 
-    /// Transmit half: bxCAN's three mailboxes.
-    pub struct Tx(bxcan::Tx<Can<CAN1>>);
-    /// Receive half: FIFO 0.
+    /// Transmit half: the three mailboxes of each bxCAN.
+    pub struct Tx {
+        can1: bxcan::Tx<Can<CAN1>>,
+        can2: bxcan::Tx<Can<CAN2>>,
+    }
+    /// Receive half of CAN1: FIFO 0.
     pub struct Rx(pub bxcan::Rx0<Can<CAN1>>);
+    /// Receive half of CAN2: FIFO 0.
+    pub struct Rx2(pub bxcan::Rx0<Can<CAN2>>);
     /// The watchdog tick timer.
     pub struct Tick(CounterHz<TIM2>);
 
     impl Transport for Tx {
-        /// Queues into a free mailbox. When all three are busy, bxCAN replaces a pending
-        /// frame of lower priority (higher ID: a Status, CommandAck or XCP packet behind a
-        /// Demand): the new frame is queued, the replaced one is lost and counted in
-        /// [`TX_DISPLACED`]; otherwise a full queue refuses the frame (`false`).
+        /// Queues on the frame's bus ([`bus_of_frame`] for the running channel count) into
+        /// a free mailbox. When all three are busy, bxCAN replaces a pending frame of lower
+        /// priority (higher ID: a Status, CommandAck or XCP packet behind a Demand): the new
+        /// frame is queued, the replaced one is lost and counted in [`TX_DISPLACED`];
+        /// otherwise a full queue refuses the frame (`false`).
         fn queue(&mut self, f: &RawFrame) -> bool {
             let Some(id) = StandardId::new(f.id) else {
                 return false;
@@ -74,7 +83,13 @@ mod board {
             let Some(data) = bxcan::Data::new(f.payload()) else {
                 return false;
             };
-            match self.0.transmit(&bxcan::Frame::new_data(id, data)) {
+            let frame = bxcan::Frame::new_data(id, data);
+            let sent =
+                match bus_of_frame(f.id, mil_firmware::calibration::running_channels() as u32) {
+                    0 => self.can1.transmit(&frame),
+                    _ => self.can2.transmit(&frame),
+                };
+            match sent {
                 Ok(status) => {
                     if status.dequeued_frame().is_some() {
                         TX_DISPLACED.fetch_add(1, Ordering::Relaxed);
@@ -158,8 +173,10 @@ mod board {
     pub struct Hardware {
         /// Transmit half.
         pub tx: Tx,
-        /// Receive half.
+        /// Receive half of CAN1.
         pub rx: Rx,
+        /// Receive half of CAN2.
+        pub rx2: Rx2,
         /// Tick timer, running, interrupt enabled.
         pub tick: Tick,
         /// No second link on the board.
@@ -168,7 +185,7 @@ mod board {
         pub store_flash: StoreFlash,
     }
 
-    /// Clocks, CAN1 and TIM2. `None` if a peripheral refuses its configuration.
+    /// Clocks, CAN1, CAN2 and TIM2. `None` if a peripheral refuses its configuration.
     pub fn init(dp: pac::Peripherals) -> Option<Hardware> {
         let mut rcc = dp.RCC.freeze(
             Config::hse(HSE_HZ.Hz())
@@ -182,6 +199,13 @@ mod board {
             .set_bit_timing(CAN_BTR)
             .set_automatic_retransmit(true)
             .leave_disabled();
+        // CAN2 is bxCAN's slave: it runs on CAN1's clock (enabled above) and its filter
+        // banks are set through CAN1.
+        let can2 = dp.CAN2.can((gpiob.pb13, gpiob.pb12), &mut rcc);
+        let mut can2 = bxcan::Can::builder(can2)
+            .set_bit_timing(CAN_BTR)
+            .set_automatic_retransmit(true)
+            .leave_disabled();
         // Hardware filter, bank 0: the MiL range (base .. base + 0x3F); everything else but
         // XCP never reaches the CPU. Frames inside it that are not ours are counted by the decoder.
         let (first, _) = LAYOUT.id_range();
@@ -190,18 +214,34 @@ mod board {
         // Bank 1: the XCP command ID exactly.
         let xcp = StandardId::new(XCP_COMMAND_ID)?;
         let exact = StandardId::new(0x7FF)?;
+        // CAN2 (banks from 14 on): the MiL range only (XCP stays on CAN1).
         can.modify_filters()
             .enable_bank(0, Fifo::Fifo0, Mask32::frames_with_std_id(id, mask))
-            .enable_bank(1, Fifo::Fifo0, Mask32::frames_with_std_id(xcp, exact));
+            .enable_bank(1, Fifo::Fifo0, Mask32::frames_with_std_id(xcp, exact))
+            .set_split(CAN2_FIRST_BANK)
+            .slave_filters()
+            // Bank indices are absolute: CAN2's first is the split.
+            .enable_bank(
+                CAN2_FIRST_BANK,
+                Fifo::Fifo0,
+                Mask32::frames_with_std_id(id, mask),
+            );
         can.enable_interrupt(Interrupt::Fifo0MessagePending);
+        can2.enable_interrupt(Interrupt::Fifo0MessagePending);
         nb::block!(can.enable_non_blocking()).ok()?;
+        nb::block!(can2.enable_non_blocking()).ok()?;
         let (tx, rx0, _rx1) = can.split();
+        let (tx2, rx2, _rx2_1) = can2.split();
         let mut tick = dp.TIM2.counter_hz(&mut rcc);
         tick.start(SAMPLE_RATE_HZ.Hz()).ok()?;
         tick.listen(Event::Update);
         Some(Hardware {
-            tx: Tx(tx),
+            tx: Tx {
+                can1: tx,
+                can2: tx2,
+            },
             rx: Rx(rx0),
+            rx2: Rx2(rx2),
             tick: Tick(tick),
             aux_tx: AuxTx,
             store_flash: StoreFlash(stm32f4xx_hal::flash::LockedFlash::new(dp.FLASH)),
@@ -240,6 +280,9 @@ mod qemu {
     pub type AuxTx = SlcanTx<serial::Tx<USART2, u8>>;
     /// Receive half of the MiL link (USART1).
     pub struct Rx(pub serial::Rx<USART1, u8>);
+    /// QEMU emulates no bxCAN: the board's CAN2 receive half exists here in name only
+    /// (RTIC declares every local resource's type in both builds; nothing is made of it).
+    pub struct Rx2;
     /// Receive half of the XCP port (USART2).
     pub struct AuxRx(pub serial::Rx<USART2, u8>);
     /// The watchdog tick timer (1 MHz nominal counter; QEMU clocks it faster).

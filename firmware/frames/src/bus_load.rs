@@ -70,6 +70,27 @@ pub const fn frame_bits_worst(dlc: u8) -> u32 {
     frame_bits(dlc) + stuff_bits_worst(dlc)
 }
 
+/// The buses a configuration of `channels` channels spreads them over: one for one
+/// channel, both of the board's for more (channel `c` on bus `c mod 2`).
+pub const fn buses_for(channels: u8) -> u8 {
+    if channels > 1 {
+        2
+    } else {
+        1
+    }
+}
+
+/// The bus (0: CAN1, 1: CAN2) a frame of `kind` for `channel` goes on when the channels
+/// are spread over `buses` buses: a per-channel frame on `channel mod buses`, the others
+/// (heartbeat, commands and their acknowledgements) on CAN1, as XCP.
+pub const fn bus_of(kind: MessageKind, channel: u8, buses: u8) -> u8 {
+    if kind.per_channel() && buses > 1 {
+        channel % buses
+    } else {
+        0
+    }
+}
+
 /// A periodic frame: data length and rate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameRate {
