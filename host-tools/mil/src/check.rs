@@ -113,9 +113,10 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
                 // What the board and the simulated rig run: checked as `mil sim` runs it.
                 let config = s.sim()?;
                 crate::sim::prepare(&config)?;
+                let bus = bus_budget_line(&config);
                 format!(
                     "MiL set-up {:?} (configuration 4, {:?} model: for mil analyze, \
-                     design-filter, sim and run)",
+                     design-filter, sim and run{bus})",
                     s.name, config.model.kind
                 )
             } else {
@@ -153,6 +154,33 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
         }
     };
     Ok(format!("{}: valid {what}", path.display()))
+}
+
+/// What the board's bus budget says of the configuration-4 set-up `config`, as a clause of
+/// the summary.
+fn bus_budget_line(config: &crate::config::Config) -> String {
+    use crate::sim::BusBudget;
+    let rate = config.run.sample_rate_hz;
+    match crate::sim::board_bus_budget(config) {
+        Ok(BusBudget::Fits { load, buses }) => {
+            let bus = if buses > 1 {
+                "the busier of two 1 Mbit/s buses"
+            } else {
+                "one 1 Mbit/s bus"
+            };
+            format!(
+                "; on the board {:.1} % of {bus} at {rate} Hz (budget 60 %)",
+                100.0 * load
+            )
+        }
+        Ok(BusBudget::Refused { load, max_rate_hz }) => format!(
+            "; the board would refuse it at {rate} Hz: {:.1} % of a 1 Mbit/s bus (budget \
+             60 %), it runs this model at up to {max_rate_hz:.0} Hz (the simulated rig has no \
+             bus)",
+            100.0 * load
+        ),
+        Err(e) => format!("; not a board configuration: {e}"),
+    }
 }
 
 fn round1(v: &[f64]) -> Vec<f64> {

@@ -198,6 +198,63 @@ pub struct QemuSummary {
     pub slots_written: usize,
 }
 
+/// The board's settings for `config`: its sample rate (a whole number of Hz), the other
+/// settings at the build's defaults.
+///
+/// # Errors
+/// A sample rate the board cannot run.
+fn board_settings(config: &Config) -> Result<mil_firmware::calibration::Settings> {
+    let rate = config.run.sample_rate_hz;
+    if !(rate.fract() == 0.0 && (1.0..=f64::from(u16::MAX)).contains(&rate)) {
+        bail!("run.sample_rate_hz: the board runs at a whole number of Hz, got {rate}");
+    }
+    Ok(mil_firmware::calibration::Settings {
+        sample_rate_hz: rate as u16,
+        ..mil_firmware::calibration::DEFAULT_SETTINGS
+    })
+}
+
+/// A configuration against the board's bus budget (the firmware's own schedule and check).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum BusBudget {
+    /// Within the budget: the busier bus's worst-case load (fraction) over `buses` buses.
+    Fits { load: f64, buses: u8 },
+    /// Over it (the board refuses the configuration): the load and the highest sample
+    /// rate within the budget.
+    Refused { load: f64, max_rate_hz: f64 },
+}
+
+/// The board's bus budget for `params` at `settings`' sample rate.
+fn bus_budget(
+    params: &model_core::BoardParams,
+    settings: &mil_firmware::calibration::Settings,
+) -> BusBudget {
+    use mil_firmware::calibration::{schedule, BUS_BIT_PER_S};
+    let s = schedule(params, settings);
+    match s.check(BUS_BIT_PER_S) {
+        Ok(()) => BusBudget::Fits {
+            load: s.load(BUS_BIT_PER_S),
+            buses: s.buses,
+        },
+        Err(over) => BusBudget::Refused {
+            load: over.load,
+            max_rate_hz: over.max_sample_rate_hz,
+        },
+    }
+}
+
+/// The board's bus budget for the set-up `config` (configuration 4): its board parameters
+/// at its sample rate, as the firmware checks them when they are written.
+///
+/// # Errors
+/// An invalid set-up, or a sample rate the board cannot run.
+pub(crate) fn board_bus_budget(config: &Config) -> Result<BusBudget> {
+    let settings = board_settings(config)?;
+    let (validated, _) = prepare(config)?;
+    let params = setting(config, validated)?.board_params();
+    Ok(bus_budget(&params, &settings))
+}
+
 /// As [`simulate`], with the firmware image `elf` in QEMU (its QEMU build) in place of the
 /// host's controller: the firmware is configured over XCP with the set-up's board
 /// parameters and sample rate (refused with the bus load figure where the rate needs more
@@ -212,9 +269,7 @@ pub fn simulate_on_qemu(
     progress: impl FnMut(f64),
 ) -> Result<(SimOutput, QemuSummary)> {
     use mil_can::{configure, Qemu, QemuOptions, RemoteBoard};
-    use mil_firmware::calibration::{
-        page_values, reference_words, schedule, Settings, BUS_BIT_PER_S, DEFAULT_SETTINGS,
-    };
+    use mil_firmware::calibration::{page_values, reference_words};
     let image = std::fs::read(elf).with_context(|| format!("cannot read {}", elf.display()))?;
     let working = mil_a2l::symbols(&image)
         .map_err(|e| anyhow!("{}: {e}", elf.display()))?
@@ -227,14 +282,7 @@ pub fn simulate_on_qemu(
                 mil_a2l::WORKING_SYMBOL
             )
         })?;
-    let rate = config.run.sample_rate_hz;
-    if !(rate.fract() == 0.0 && (1.0..=f64::from(u16::MAX)).contains(&rate)) {
-        bail!("run.sample_rate_hz: the board runs at a whole number of Hz, got {rate}");
-    }
-    let settings = Settings {
-        sample_rate_hz: rate as u16,
-        ..DEFAULT_SETTINGS
-    };
+    let settings = board_settings(config)?;
     // The QEMU build's secret: MIL_XCP_SECRET if it was built with one, else the public
     // test secret it uses without.
     let secret = match std::env::var(crate::xcp::SECRET_ENV) {
@@ -249,12 +297,12 @@ pub fn simulate_on_qemu(
     };
     let output = simulate_with(config, progress, |experiment, progress| {
         let params = experiment.setting.board_params();
-        if let Err(over) = schedule(&params, &settings).check(BUS_BIT_PER_S) {
+        if let BusBudget::Refused { load, max_rate_hz } = bus_budget(&params, &settings) {
             bail!(
-                "the board refuses this configuration at {rate} Hz: {:.1} % of a 1 Mbit/s bus \
-                 (budget 60 %); it runs at up to {:.0} Hz",
-                100.0 * over.load,
-                over.max_sample_rate_hz
+                "the board refuses this configuration at {} Hz: {:.1} % of a 1 Mbit/s bus \
+                 (budget 60 %); it runs at up to {max_rate_hz:.0} Hz",
+                settings.sample_rate_hz,
+                100.0 * load
             );
         }
         let target = page_values(&params, &settings).map(f32::to_bits);

@@ -319,3 +319,29 @@ fn bad_substructure_configurations_are_refused() {
     let e = format!("{:#}", c.validate().unwrap_err());
     assert!(e.contains("interface.channels: 0 given"), "{e}");
 }
+
+/// `mil check` states what the board's bus budget says of a set-up: the two-DOF example
+/// (one channel at 2 kHz) fits one bus; the tyre example (four wheels) at 2 kHz would be
+/// refused, with the highest rate the board runs it at. By hand: two channels on the
+/// busier of the two buses, 125 + 115 worst-case bits (7- and 6-byte frames) each per
+/// sample, plus 10 Hz of 135-bit heartbeat and 50 kbit/s kept for XCP, within 60 % of
+/// 1 Mbit/s: (600 000 - 1 350 - 50 000) / 480 = 1143 Hz.
+#[test]
+fn check_states_the_bus_budget() {
+    let check = |file: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
+            .args(["check", examples().join(file).to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let fits = check("two-dof.toml");
+    assert!(fits.contains("% of one 1 Mbit/s bus at 2000 Hz"), "{fits}");
+    let refused = check("tyre.toml");
+    assert!(
+        refused.contains("the board would refuse it at 2000 Hz")
+            && refused.contains("up to 1143 Hz"),
+        "{refused}"
+    );
+}
