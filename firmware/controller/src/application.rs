@@ -246,6 +246,10 @@ pub struct Application {
     gathering: Option<u32>,
     /// Watchdog ticks that had passed when the sample's first frame came.
     gathering_ticks: u32,
+    /// Board time (µs, wrapping): every step adds its sample period, `1e6 / rate` with the
+    /// remainder carried (`time_rem`, in 1/rate µs), so no rate drifts.
+    time_us: u32,
+    time_rem: u32,
 }
 
 impl Application {
@@ -292,6 +296,8 @@ impl Application {
         gathered: 0,
         gathering: None,
         gathering_ticks: 0,
+        time_us: 0,
+        time_rem: 0,
     };
 
     /// Makes this (a [`Application::BLANK`], or any) the application [`Application::new`]
@@ -324,6 +330,8 @@ impl Application {
         self.gathered = 0;
         self.gathering = None;
         self.gathering_ticks = 0;
+        self.time_us = 0;
+        self.time_rem = 0;
         Ok(())
     }
 
@@ -424,6 +432,13 @@ impl Application {
         store_u32(meas::STEPS, status.counters.steps);
         store_u32(meas::MISSED, status.counters.missed);
         store_u32(meas::MALFORMED, status.counters.malformed);
+        store_u32(meas::TIME_US, self.time_us);
+    }
+
+    /// Board time (µs, wrapping): the sample periods of every step so far, each at the rate
+    /// it ran (the DAQ timestamp, measurement `time_us`).
+    pub fn time_us(&self) -> u32 {
+        self.time_us
     }
 
     /// The counters.
@@ -558,6 +573,10 @@ impl Application {
     /// One controller step on the stored input.
     fn step(&mut self) -> Output {
         let force_n = self.controller.step(&self.input);
+        let rate = u32::from(self.sample_rate_hz.max(1));
+        let period = self.time_rem + 1_000_000;
+        self.time_us = self.time_us.wrapping_add(period / rate);
+        self.time_rem = period % rate;
         let s = self.controller.status();
         self.amplitude_limited |= s.amplitude_limited;
         self.rate_limited |= s.rate_limited;
@@ -663,6 +682,10 @@ impl Application {
             Ok(()) => {
                 self.status_period = settings.status_period;
                 self.watchdog.limit = settings.watchdog;
+                if self.sample_rate_hz != settings.sample_rate_hz {
+                    // The carried remainder was in the old rate's units.
+                    self.time_rem = 0;
+                }
                 self.sample_rate_hz = settings.sample_rate_hz;
                 self.gathered = 0;
                 self.gathering = None;
@@ -724,6 +747,49 @@ mod tests {
         // 1000 N per sample).
         let d = a.on_measurement(&measurement(1000 % 256)).unwrap().demand;
         assert!((d.force_n[0] - (1667.7 + 250.0)).abs() < 1.0, "{d:?}");
+    }
+
+    /// The board time adds each step's own sample period, exactly at any whole rate: 2 kHz,
+    /// then (switched while Idle) 3 kHz, whose 333 1/3 µs carry their remainder.
+    #[test]
+    fn board_time_adds_each_steps_sample_period() {
+        let _turn = crate::calibration::test_lock(); // writes the measurement block
+        let mut a = app();
+        for k in 0..10 {
+            a.on_measurement(&measurement(k)).unwrap();
+        }
+        assert_eq!(a.time_us(), 10 * 500);
+        let mut candidate = crate::calibration::Candidate::NEW;
+        *candidate.prepared.params_mut() = crate::config::default_params();
+        candidate.prepared.prepare(1.0 / 3000.0).unwrap();
+        let settings = crate::calibration::Settings {
+            sample_rate_hz: 3000,
+            ..crate::calibration::DEFAULT_SETTINGS
+        };
+        assert_eq!(a.install(&candidate.prepared, settings), code::OK);
+        for k in 10..(10 + 3000) {
+            a.on_measurement(&measurement(k % 256)).unwrap();
+        }
+        assert_eq!(
+            a.time_us(),
+            10 * 500 + 1_000_000,
+            "3000 steps at 3 kHz are 1 s"
+        );
+        for k in 0..2 {
+            a.on_measurement(&measurement(k)).unwrap();
+        }
+        assert_eq!(
+            a.time_us(),
+            1_005_000 + 666,
+            "two thirds of a millisecond, rounded down"
+        );
+        a.record_step();
+        assert_eq!(
+            crate::calibration::measurement_words()[crate::calibration::meas::TIME_US],
+            a.time_us()
+        );
+        assert_eq!(crate::xcp::event_period_us(3000), 333);
+        assert_eq!(crate::xcp::event_period_us(1000), 1000);
     }
 
     #[test]

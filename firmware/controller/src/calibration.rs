@@ -483,7 +483,7 @@ pub struct MeasItem {
 }
 
 /// Number of measurement slots.
-pub const MEASUREMENTS: usize = 14;
+pub const MEASUREMENTS: usize = 15;
 /// Size of the measurement block (bytes).
 pub const MEASUREMENT_BYTES: usize = 4 * MEASUREMENTS;
 
@@ -601,6 +601,14 @@ pub const MEAS_ITEMS: [MeasItem; MEASUREMENTS] = [
         max: 4.0,
         float: false,
     },
+    MeasItem {
+        name: "time_us",
+        description: "board time: the sample periods of the control steps since start, each at the rate it ran (wrapping); the DAQ timestamp",
+        unit: "us",
+        min: 0.0,
+        max: u32::MAX as f32,
+        float: false,
+    },
 ];
 
 /// Where the running calibration came from at boot (measurement `calibration_source`,
@@ -649,6 +657,8 @@ pub mod meas {
     pub const CAL_STORES: usize = 12;
     /// Outcome of the last calibration store.
     pub const CAL_STORE_ERROR: usize = 13;
+    /// Board time (µs, wrapping): every control step adds its sample period.
+    pub const TIME_US: usize = 14;
 }
 
 /// The measurement block, in RAM (see the module documentation).

@@ -95,10 +95,12 @@
 //!   page) and changes nothing. The measurement block's `calibration_changes` counts applied
 //!   changes, `calibration_last_rejection` keeps the reason code of the last refusal (XCP and
 //!   Command frames alike).
-//! - **DAQ**: event channel 0 is the control step (cycle 500 µs); the DAQ timestamp is the
-//!   step's time (steps × 500 µs), as is GET_DAQ_CLOCK. After each step, once the demand frame
+//! - **DAQ**: event channel 0 is the control step (its cycle the running sample period:
+//!   500 µs at the default 2 kHz, 1 ms for a configuration at 1 kHz); the DAQ timestamp is
+//!   the step's board time (measurement `time_us`: every step's sample period summed, each
+//!   at the rate it ran, exact at any whole rate), as is GET_DAQ_CLOCK. After each step, once the demand frame
 //!   is queued, the receive task stores the step's signals into the measurement block and,
-//!   while a list runs, queues a copy of it (56 bytes) for the `daq` task; the DTOs are built
+//!   while a list runs, queues a copy of it (60 bytes) for the `daq` task; the DTOs are built
 //!   from that copy, so a sample is consistent even when the `daq` task runs late. A sample
 //!   that finds the queue full is dropped and counted (`daq_dropped`), as is a DTO the
 //!   transport refuses (on the board a demand frame displaces a pending lower-priority XCP

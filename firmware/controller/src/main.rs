@@ -729,10 +729,13 @@ mod app {
         out: &mut Responses,
     ) {
         let cto = request.frame.payload();
+        // Event 0's cycle as the controller runs now (the rate changes only while Idle).
+        let period = app.lock(|a| mil_firmware::xcp::event_period_us(a.sample_rate_hz()));
         slave.lock(|s| {
             let Some(s) = s.as_mut() else {
                 return;
             };
+            s.set_event_period_us(period);
             let mut target =
                 mil_firmware::xcp::Target::with_page(Locked(app), s.ecu_page(), candidate);
             s.handle(cto, &mut target, platform, out);

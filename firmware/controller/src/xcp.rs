@@ -29,8 +29,16 @@ use crate::calibration::{self, meas, Candidate, MEASUREMENTS, MEASUREMENT_BYTES,
 use crate::config::{SAMPLE_RATE_HZ, XCP_ID, XCP_RESPONSE_ID};
 use crate::params::code;
 
-/// The control step's period (µs): XCP event channel 0's cycle and the DAQ clock's tick.
+/// The default control step's period (µs): XCP event channel 0's cycle until the rate
+/// changes ([`event_period_us`]).
 pub const STEP_PERIOD_US: u32 = 1_000_000 / SAMPLE_RATE_HZ;
+
+/// Event channel 0's cycle (µs, rounded) at the sample rate `rate_hz`: what
+/// GET_DAQ_EVENT_INFO reports (the XCP task sets it before every command).
+pub fn event_period_us(rate_hz: u16) -> u32 {
+    let rate = u32::from(rate_hz.max(1));
+    (1_000_000 + rate / 2) / rate
+}
 
 /// The slave's configuration on the board: the calibration region is the working page
 /// ([`calibration::WORKING`]) and the measurement region the measurement block, at their
@@ -84,7 +92,8 @@ pub fn response_frame(packet: &[u8]) -> Option<RawFrame> {
 pub struct StepSample {
     /// The measurement block's words.
     pub words: [u32; MEASUREMENTS],
-    /// The DAQ timestamp (µs): steps since start × [`STEP_PERIOD_US`], wrapping.
+    /// The DAQ timestamp (µs): the board time of the step ([`meas::TIME_US`]: its sample
+    /// periods summed, each at the rate it ran), wrapping.
     pub time_us: u32,
 }
 
@@ -92,10 +101,9 @@ impl StepSample {
     /// The measurement block now (call it right after [`Application::record_step`]).
     pub fn take() -> Self {
         let words = calibration::measurement_words();
-        let steps = words.get(meas::STEPS).copied().unwrap_or(0);
         Self {
             words,
-            time_us: steps.wrapping_mul(STEP_PERIOD_US),
+            time_us: words.get(meas::TIME_US).copied().unwrap_or(0),
         }
     }
 }
@@ -116,8 +124,8 @@ impl Memory for StepSample {
     }
 }
 
-/// The board's [`Platform`]: the DAQ clock is the control step's time (steps since start ×
-/// [`STEP_PERIOD_US`], the same base as [`StepSample::time_us`]); the seed entropy comes
+/// The board's [`Platform`]: the DAQ clock is the board time of the last step
+/// ([`meas::TIME_US`], the same base as [`StepSample::time_us`]); the seed entropy comes
 /// from `entropy` (a free-running hardware counter) XOR-ed with a call counter.
 pub struct StepPlatform<F> {
     entropy: F,
@@ -139,10 +147,9 @@ impl<F: FnMut() -> u32> Platform for StepPlatform<F> {
 
     fn now_us(&self) -> u32 {
         calibration::measurement_words()
-            .get(meas::STEPS)
+            .get(meas::TIME_US)
             .copied()
             .unwrap_or(0)
-            .wrapping_mul(STEP_PERIOD_US)
     }
 }
 

@@ -88,6 +88,12 @@ impl Slave {
         self.connected
     }
 
+    /// Sets the cycle of event channel 0 (µs; 0 = not cyclic) to what the application runs
+    /// now (its sample rate may change while the slave lives): GET_DAQ_EVENT_INFO reports it.
+    pub fn set_event_period_us(&mut self, period_us: u32) {
+        self.config.event_period_us = period_us;
+    }
+
     /// Whether at least one DAQ list is running.
     #[must_use]
     pub fn daq_running(&self) -> bool {
