@@ -540,7 +540,12 @@ impl Application {
                 self.counters.late = self.counters.late.wrapping_add(1);
             } else {
                 self.counters.missed = self.counters.missed.wrapping_add(jump - 1);
-                if silent > jump.saturating_add(1) {
+                // Late: more than one sample period beyond the jump's, in watchdog ticks
+                // (the tick runs at TICK_RATE_HZ, the samples at their own rate).
+                let ticks_per_sample = crate::config::TICK_RATE_HZ
+                    .div_ceil(u32::from(self.sample_rate_hz.max(1)))
+                    .max(1);
+                if silent > jump.saturating_add(1).saturating_mul(ticks_per_sample) {
                     self.counters.late = self.counters.late.wrapping_add(1);
                 }
             }
@@ -790,6 +795,37 @@ mod tests {
         );
         assert_eq!(crate::xcp::event_period_us(3000), 333);
         assert_eq!(crate::xcp::event_period_us(1000), 1000);
+    }
+
+    /// At a sample rate below the tick rate a sample spans several ticks: samples on time
+    /// are not late; one more than a sample period behind is (500 Hz: 4 ticks a sample).
+    #[test]
+    fn late_counts_in_sample_periods_at_any_rate() {
+        let _turn = crate::calibration::test_lock(); // install writes the safe-demand statics
+        let mut a = app();
+        let mut candidate = crate::calibration::Candidate::NEW;
+        *candidate.prepared.params_mut() = crate::config::default_params();
+        candidate.prepared.prepare(1.0 / 500.0).unwrap();
+        let settings = crate::calibration::Settings {
+            sample_rate_hz: 500,
+            watchdog: 40,
+            ..crate::calibration::DEFAULT_SETTINGS
+        };
+        assert_eq!(a.install(&candidate.prepared, settings), code::OK);
+        let ticks_per_sample = crate::config::TICK_RATE_HZ / 500;
+        for k in 0..20 {
+            for _ in 0..ticks_per_sample {
+                a.on_tick();
+            }
+            a.on_measurement(&measurement(k)).unwrap();
+        }
+        assert_eq!((a.counters().missed, a.counters().late), (0, 0));
+        // Two periods and a tick of silence for one sample: late.
+        for _ in 0..(2 * ticks_per_sample + 1) {
+            a.on_tick();
+        }
+        a.on_measurement(&measurement(20)).unwrap();
+        assert_eq!((a.counters().missed, a.counters().late), (0, 1));
     }
 
     #[test]

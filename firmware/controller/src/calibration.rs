@@ -321,6 +321,10 @@ pub fn decode_page_into(words: &[u32; SLOTS], prepared: &mut Prepared) -> Result
             _ => settings.sample_rate_hz = params::integer_in(value, SAMPLE_RATE_RANGE)?,
         }
     }
+    if !watchdog_spans_samples(&settings) {
+        prepared.params_mut();
+        return Err(code::INCONSISTENT);
+    }
     prepared
         .prepare(settings.dt())
         .map_err(|e| params::error_code(&e))?;
@@ -332,6 +336,14 @@ pub fn decode_page_into(words: &[u32; SLOTS], prepared: &mut Prepared) -> Result
         return Err(code::BUS_BUDGET);
     }
     Ok(settings)
+}
+
+/// `true` when the watchdog (unless off) spans at least two sample periods: its limit is in
+/// ticks of the fixed tick rate, so a slow sample rate needs a longer one (at 100 Hz the
+/// default 10 ticks, 5 ms, would trip between every two samples).
+pub fn watchdog_spans_samples(s: &Settings) -> bool {
+    s.watchdog == crate::config::WATCHDOG_OFF
+        || u32::from(s.watchdog) * u32::from(s.sample_rate_hz) >= 2 * crate::config::TICK_RATE_HZ
 }
 
 /// Stores `words` as the working page (a validated change; see `xcp::Target`).
@@ -889,6 +901,25 @@ mod tests {
             config(2500.0, ModelKind::Aero, 2.0).err(),
             Some(code::BUS_BUDGET)
         );
+    }
+
+    /// A slow sample rate needs a watchdog of at least two of its periods (the limit is in
+    /// ticks of the fixed tick rate): 100 Hz with the default 10 ticks (5 ms) is refused as
+    /// inconsistent, with 40 ticks (20 ms) accepted, and 400 Hz takes the default.
+    #[test]
+    fn a_watchdog_shorter_than_two_samples_is_refused() {
+        let words = defaults();
+        let settings = |rate: f32, watchdog: f32| {
+            let mut block = [0u8; 8];
+            block[0..4].copy_from_slice(&bytes(watchdog));
+            block[4..8].copy_from_slice(&bytes(rate));
+            validate(&words, 4 * SLOT_WATCHDOG, &block).map(|a| a.settings.sample_rate_hz)
+        };
+        assert_eq!(SLOT_SAMPLE_RATE, SLOT_WATCHDOG + 1);
+        assert_eq!(settings(100.0, 10.0).err(), Some(code::INCONSISTENT));
+        assert_eq!(settings(100.0, 40.0), Ok(100));
+        assert_eq!(settings(400.0, 10.0), Ok(400));
+        assert_eq!(settings(399.0, 10.0).err(), Some(code::INCONSISTENT));
     }
 
     #[test]
