@@ -37,6 +37,8 @@ enum Kind {
     Flag,
     /// An event count: unsigned, 1..=16 bits (the codec saturates to the width).
     Count,
+    /// An index (the command's parameter index): unsigned, 8..=16 bits.
+    Index,
     /// IEEE-754 single precision (`SIG_VALTYPE_ ... : 1`).
     Float32,
 }
@@ -49,6 +51,7 @@ impl Kind {
             Kind::Enum => "SignalKind::Enum",
             Kind::Flag => "SignalKind::Flag",
             Kind::Count => "SignalKind::Count",
+            Kind::Index => "SignalKind::Index",
             Kind::Float32 => "SignalKind::Float32",
         }
     }
@@ -116,7 +119,7 @@ const EXPECTED: &[Expected] = &[
         per_channel: false,
         signals: &[
             ("Command", "COMMAND", Kind::Byte),
-            ("Index", "INDEX", Kind::Byte),
+            ("Index", "INDEX", Kind::Index),
             ("Value", "VALUE", Kind::Float32),
         ],
     },
@@ -379,6 +382,7 @@ fn main() {
                 Kind::Enum => !float && !signed && (2..=8).contains(&len) && integral,
                 Kind::Flag => !float && !signed && len == 1 && integral,
                 Kind::Count => !float && !signed && (1..=16).contains(&len) && integral,
+                Kind::Index => !float && !signed && (8..=16).contains(&len) && integral,
                 Kind::Float32 => {
                     float
                         && matches!(
@@ -398,6 +402,7 @@ fn main() {
                     Kind::Enum => "an unsigned integer of 2..=8 bits with factor 1, offset 0",
                     Kind::Flag => "an unsigned 1-bit integer with factor 1, offset 0",
                     Kind::Count => "an unsigned integer of 1..=16 bits with factor 1, offset 0",
+                    Kind::Index => "an unsigned integer of 8..=16 bits with factor 1, offset 0",
                     Kind::Float32 => {
                         "a 32-bit IEEE float (SIG_VALTYPE_ ... : 1) with factor 1, offset 0"
                     }

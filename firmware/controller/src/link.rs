@@ -54,7 +54,7 @@ pub trait Transport {
 pub struct Request {
     /// Raw command number received (echoed).
     pub command_raw: u8,
-    /// Raw index received (echoed).
+    /// Raw index received: its low byte (echoed).
     pub index_raw: u8,
     /// The decoded command, or the CommandAck result code of a frame that did not decode.
     pub command: Result<Command, u8>,
@@ -285,7 +285,7 @@ fn command(c: &mil_frames::Command) -> Command {
         CommandKind::Stop => Command::Stop,
         CommandKind::ClearFault => Command::ClearFault,
         CommandKind::SetParam => Command::SetParam {
-            index: u16::from(c.index),
+            index: c.index,
             value: c.value,
         },
         CommandKind::SetWatchdog => Command::SetWatchdog { seconds: c.value },
@@ -356,7 +356,7 @@ pub fn on_frame_probed<T: Transport, P: FnMut(usize)>(
         }
         Ok(Message::Command(c)) => Handled::Command(Request {
             command_raw: c.command as u8,
-            index_raw: c.index,
+            index_raw: c.index as u8,
             command: Ok(command(&c)),
         }),
         Ok(Message::Demand(_) | Message::Status(_) | Message::CommandAck(_)) => {
@@ -682,6 +682,31 @@ mod tests {
                 command: Ok(Command::SetParam {
                     index: 1,
                     value: 600.0
+                }),
+            })
+        );
+        // Any slot of the page: the index has 16 bits (byte 2, reserved before), the
+        // acknowledgement echoes its low byte.
+        let high = crate::calibration::slot_named("limits_safe_ramp_rate_3").unwrap();
+        assert!(high > 255, "{high}");
+        let far = encode_command(
+            &LAYOUT,
+            &mil_frames::Command {
+                command: CommandKind::SetParam,
+                index: high as u16,
+                value: 2.5,
+            },
+        )
+        .unwrap();
+        assert_eq!(far.data[1..3], (high as u16).to_le_bytes());
+        assert_eq!(
+            on_frame(&mut app, &far, &mut sink),
+            Handled::Command(Request {
+                command_raw: 4,
+                index_raw: high as u8,
+                command: Ok(Command::SetParam {
+                    index: high as u16,
+                    value: 2.5
                 }),
             })
         );

@@ -316,7 +316,7 @@ pub struct Command {
     /// What to do.
     pub command: CommandKind,
     /// Parameter index ([`CommandKind::SetParam`]; 0 for the other commands).
-    pub index: u8,
+    pub index: u16,
     /// Argument (SI units of the parameter; watchdog timeout in s); always finite.
     pub value: f32,
 }
@@ -327,7 +327,7 @@ pub struct Command {
 pub struct CommandAck {
     /// Raw command number received (echoed also when unknown).
     pub command: u8,
-    /// Raw index received.
+    /// Raw index received: its low byte.
     pub index: u8,
     /// 0 ok; otherwise an error code (this crate's below 128, the firmware's from 128).
     pub result: u8,
@@ -343,7 +343,7 @@ impl CommandAck {
     pub fn answering(command: &Command, result: u8, mode: Mode) -> Self {
         CommandAck {
             command: command.command as u8,
-            index: command.index,
+            index: command.index as u8,
             result,
             mode,
         }
@@ -538,7 +538,7 @@ pub fn decode(layout: &Layout, frame: &RawFrame) -> Result<Message, DecodeError>
             use dbc::command as m;
             let command = CommandKind::from_u8(get_byte(word, &m::COMMAND))
                 .ok_or(DecodeError::UnknownCommand)?;
-            let index = get_byte(word, &m::INDEX);
+            let index = get(word, &m::INDEX) as u16;
             if index != 0 && !command.takes_index() {
                 return Err(DecodeError::ReservedNotZero);
             }

@@ -23,6 +23,8 @@ pub enum SignalKind {
     Flag,
     /// An event count, saturating at the largest raw value.
     Count,
+    /// An unsigned index of 8 to 16 bits (the command's parameter index).
+    Index,
     /// IEEE-754 single precision.
     Float32,
 }

@@ -21,8 +21,8 @@
 //! | [`MeasurementAux`] | base + 0x08 + ch | 6 | servo → board, where needed | `Force` i32 (0.1 N, ±400 kN), `Speed` u16 (0.01 m/s, 0..150 m/s) |
 //! | [`Demand`] | base + 0x10 + ch | 6 | board → servo, one per measurement | `Demand` i32 (0.1 N, ±400 kN, saturating), `Counter` u8 (echo), `Mode` 2 bits, `FaultLatched`, `AmplitudeLimited`, `RateLimited` 1 bit each |
 //! | [`Status`] | base + 0x20 | 8 | board → bus, 10 Hz | `Mode` u4, `CalibrationSource` u4, `FaultCauses` u8, `MissedSamples`, `LateSamples`, `MalformedFrames` u16 (saturating) |
-//! | [`Command`] | base + 0x21 | 8 | tool → board | `Command` u8 (1 start, 2 stop, 3 clear fault, 4 set parameter, 5 set watchdog), `Index` u8, bytes 2–3 reserved (0), `Value` f32 |
-//! | [`CommandAck`] | base + 0x22 | 4 | board → tool | `Command` u8 (echo), `Index` u8 (echo), `Result` u8 (0 ok, else an error code), `Mode` u8 |
+//! | [`Command`] | base + 0x21 | 8 | tool → board | `Command` u8 (1 start, 2 stop, 3 clear fault, 4 set parameter, 5 set watchdog), `Index` u16 (bytes 1–2: every slot of the board's page; byte 2 was reserved before, so an 8-bit index means the same), byte 3 reserved (0), `Value` f32 |
+//! | [`CommandAck`] | base + 0x22 | 4 | board → tool | `Command` u8 (echo), `Index` u8 (echo of the index's low byte), `Result` u8 (0 ok, else an error code), `Mode` u8 |
 //!
 //! Free IDs inside the range (base + 0x18..0x20, 0x23..0x30) are [`DecodeError::UnknownId`];
 //! IDs outside it are [`DecodeError::Foreign`] (ignore and count).

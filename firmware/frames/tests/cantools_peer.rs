@@ -184,7 +184,12 @@ fn messages() -> Vec<Message> {
     }
     for command in CommandKind::ALL {
         for value in [0.0, -0.0, 1.5e-40, 3.4e38, -1.25, rng.uniform(-1e3, 1e3)] {
-            let index = if command.takes_index() { rng.byte() } else { 0 };
+            // 16 bits: the high byte too (every slot of the board's page).
+            let index = if command.takes_index() {
+                u16::from_le_bytes([rng.byte(), rng.byte()])
+            } else {
+                0
+            };
             out.push(Message::Command(Command {
                 command,
                 index,

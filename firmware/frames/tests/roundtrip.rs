@@ -101,7 +101,7 @@ proptest! {
     }
 
     #[test]
-    fn command_round_trip(command in kind(), index in any::<u8>(), value in any::<f32>()) {
+    fn command_round_trip(command in kind(), index in any::<u16>(), value in any::<f32>()) {
         let l = Layout::DEFAULT;
         let index = if command.takes_index() { index } else { 0 };
         let c = Command { command, index, value };

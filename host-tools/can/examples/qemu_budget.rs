@@ -241,7 +241,7 @@ fn lockstep(
     let (qemu, link) = Qemu::spawn(elf, &options)
         .map_err(|e| format!("QEMU: {e} (install it: apt-get install -y qemu-system-arm)"))?;
     let mut board = RemoteBoard::new(link)?;
-    let index = u8::try_from(SLOT_WATCHDOG).map_err(|e| e.to_string())?;
+    let index = u16::try_from(SLOT_WATCHDOG).map_err(|e| e.to_string())?;
     let ack = board.command(CommandKind::SetParam, index, f32::from(WATCHDOG_OFF))?;
     if ack.result != 0 {
         return Err(format!(

@@ -317,7 +317,7 @@ impl<T: Transport> RemoteBoard<T> {
     pub fn command(
         &mut self,
         command: CommandKind,
-        index: u8,
+        index: u16,
         value: f32,
     ) -> Result<CommandAck, String> {
         let frame = encode_command(

@@ -219,7 +219,7 @@ fn faults_are_contained() {
         board
             .command(
                 CommandKind::SetParam,
-                mil_firmware::calibration::SLOT_STATUS_PERIOD as u8,
+                mil_firmware::calibration::SLOT_STATUS_PERIOD as u16,
                 5.0,
             )
             .unwrap()
