@@ -229,46 +229,21 @@ impl BoardParams {
     /// into `p`, in place; its model is left as it is.
     fn channels_into<P, const CH: usize>(&self, p: &mut ControllerParams<P, CH>) {
         let used = (self.channels as usize).min(CH);
-        for k in 0..CH {
-            let on = k < used;
-            let (filter, limits, safe, ramp) = (
-                p.filter.get_mut(k),
-                p.limits.get_mut(k),
-                p.safe_demand.get_mut(k),
-                p.safe_ramp_rate.get_mut(k),
-            );
-            if let Some(f) = filter {
-                *f = self
-                    .filter
-                    .get(k)
-                    .filter(|_| on)
-                    .copied()
-                    .unwrap_or(CascadeCoefficients::IDENTITY);
-            }
-            if let Some(l) = limits {
-                *l = self
-                    .limits
-                    .get(k)
-                    .filter(|_| on)
-                    .copied()
-                    .unwrap_or(UNUSED_LIMITS);
-            }
-            if let Some(d) = safe {
-                *d = self
-                    .safe_demand
-                    .get(k)
-                    .filter(|_| on)
-                    .copied()
-                    .unwrap_or(0.0);
-            }
-            if let Some(r) = ramp {
-                *r = self
-                    .safe_ramp_rate
-                    .get(k)
-                    .filter(|_| on)
-                    .copied()
-                    .unwrap_or(UNUSED_RAMP_RATE);
-            }
+        /// Channel `k`'s value of `v` when it runs, else `unused`.
+        fn pick<T: Copy>(v: &[T], k: usize, used: usize, unused: T) -> T {
+            v.get(k).filter(|_| k < used).copied().unwrap_or(unused)
+        }
+        for (k, f) in p.filter.iter_mut().enumerate() {
+            *f = pick(&self.filter, k, used, CascadeCoefficients::IDENTITY);
+        }
+        for (k, l) in p.limits.iter_mut().enumerate() {
+            *l = pick(&self.limits, k, used, UNUSED_LIMITS);
+        }
+        for (k, d) in p.safe_demand.iter_mut().enumerate() {
+            *d = pick(&self.safe_demand, k, used, 0.0);
+        }
+        for (k, r) in p.safe_ramp_rate.iter_mut().enumerate() {
+            *r = pick(&self.safe_ramp_rate, k, used, UNUSED_RAMP_RATE);
         }
     }
 

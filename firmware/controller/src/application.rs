@@ -247,9 +247,13 @@ pub struct Application {
     /// Watchdog ticks that had passed when the sample's first frame came.
     gathering_ticks: u32,
     /// Board time (µs, wrapping): every step adds its sample period, `1e6 / rate` with the
-    /// remainder carried (`time_rem`, in 1/rate µs), so no rate drifts.
+    /// remainder carried (`time_rem`, in 1/rate µs), so no rate drifts; `period` is
+    /// `1e6 / rate` as (whole µs, remainder), set with the rate (no division per step).
     time_us: u32,
     time_rem: u32,
+    period: (u32, u32),
+    /// Watchdog ticks one sample period spans (at least 1), set with the rate.
+    ticks_per_sample: u32,
 }
 
 impl Application {
@@ -298,6 +302,8 @@ impl Application {
         gathering_ticks: 0,
         time_us: 0,
         time_rem: 0,
+        period: (0, 0),
+        ticks_per_sample: 1,
     };
 
     /// Makes this (a [`Application::BLANK`], or any) the application [`Application::new`]
@@ -326,7 +332,7 @@ impl Application {
         self.rate_limited = 0;
         self.counters = Counters::ZERO;
         self.calibration_source = crate::calibration::Source::Defaults;
-        self.sample_rate_hz = SAMPLE_RATE_HZ as u16;
+        self.set_rate(SAMPLE_RATE_HZ as u16);
         self.gathered = 0;
         self.gathering = None;
         self.gathering_ticks = 0;
@@ -433,6 +439,18 @@ impl Application {
         store_u32(meas::MISSED, status.counters.missed);
         store_u32(meas::MALFORMED, status.counters.malformed);
         store_u32(meas::TIME_US, self.time_us);
+    }
+
+    /// Runs at `hz`: the sample rate and its period for the board time (the carried
+    /// remainder restarts when the rate changes: it was in the old rate's units).
+    fn set_rate(&mut self, hz: u16) {
+        if hz != self.sample_rate_hz {
+            self.time_rem = 0;
+        }
+        self.sample_rate_hz = hz;
+        let rate = u32::from(hz.max(1));
+        self.period = (1_000_000 / rate, 1_000_000 % rate);
+        self.ticks_per_sample = crate::config::TICK_RATE_HZ.div_ceil(rate).max(1);
     }
 
     /// Board time (µs, wrapping): the sample periods of every step so far, each at the rate
@@ -542,10 +560,7 @@ impl Application {
                 self.counters.missed = self.counters.missed.wrapping_add(jump - 1);
                 // Late: more than one sample period beyond the jump's, in watchdog ticks
                 // (the tick runs at TICK_RATE_HZ, the samples at their own rate).
-                let ticks_per_sample = crate::config::TICK_RATE_HZ
-                    .div_ceil(u32::from(self.sample_rate_hz.max(1)))
-                    .max(1);
-                if silent > jump.saturating_add(1).saturating_mul(ticks_per_sample) {
+                if silent > jump.saturating_add(1).saturating_mul(self.ticks_per_sample) {
                     self.counters.late = self.counters.late.wrapping_add(1);
                 }
             }
@@ -578,10 +593,13 @@ impl Application {
     /// One controller step on the stored input.
     fn step(&mut self) -> Output {
         let force_n = self.controller.step(&self.input);
-        let rate = u32::from(self.sample_rate_hz.max(1));
-        let period = self.time_rem + 1_000_000;
-        self.time_us = self.time_us.wrapping_add(period / rate);
-        self.time_rem = period % rate;
+        let (whole, rem) = self.period;
+        self.time_us = self.time_us.wrapping_add(whole);
+        self.time_rem += rem;
+        if self.time_rem >= u32::from(self.sample_rate_hz) {
+            self.time_rem -= u32::from(self.sample_rate_hz);
+            self.time_us = self.time_us.wrapping_add(1);
+        }
         let s = self.controller.status();
         self.amplitude_limited |= s.amplitude_limited;
         self.rate_limited |= s.rate_limited;
@@ -687,11 +705,7 @@ impl Application {
             Ok(()) => {
                 self.status_period = settings.status_period;
                 self.watchdog.limit = settings.watchdog;
-                if self.sample_rate_hz != settings.sample_rate_hz {
-                    // The carried remainder was in the old rate's units.
-                    self.time_rem = 0;
-                }
-                self.sample_rate_hz = settings.sample_rate_hz;
+                self.set_rate(settings.sample_rate_hz);
                 self.gathered = 0;
                 self.gathering = None;
                 use core::sync::atomic::Ordering::Relaxed;

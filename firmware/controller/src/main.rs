@@ -695,12 +695,11 @@ mod app {
         }
     }
 
-    /// Stores the working page ([`store::store_working`]) to its end here: the flash
-    /// answers at once (board: blocking; QEMU: RAM), and the store's kilobytes of buffers
-    /// then live on the stack for the store only, not in the XCP task's future (a static,
-    /// for good). A flash that waits counts as a flash error.
-    /// `words` (a copy of the working page; `valid`: it passed [`working_valid`]) is the
-    /// page stored ([`store::store_words`]).
+    /// Stores `words`, a copy of the working page (`valid`: it passed [`working_valid`]),
+    /// to its end here ([`store::store_words`]): the flash answers at once (board:
+    /// blocking; QEMU: RAM), and the store's kilobytes of buffers then live on the stack for
+    /// the store only, not in the XCP task's future (a static, for good). A flash that
+    /// waits counts as a flash error.
     #[inline(never)]
     fn store_now(
         store: &mut Store<port::StoreFlash>,
