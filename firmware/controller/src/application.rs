@@ -252,7 +252,8 @@ pub struct Application {
     time_us: u32,
     time_rem: u32,
     period: (u32, u32),
-    /// Watchdog ticks one sample period spans (at least 1), set with the rate.
+    /// Watchdog ticks one sample period spans (at least 1), set with the rate (0 in
+    /// [`Application::BLANK`], which must stay all zero bits).
     ticks_per_sample: u32,
 }
 
@@ -303,7 +304,7 @@ impl Application {
         time_us: 0,
         time_rem: 0,
         period: (0, 0),
-        ticks_per_sample: 1,
+        ticks_per_sample: 0,
     };
 
     /// Makes this (a [`Application::BLANK`], or any) the application [`Application::new`]

@@ -143,6 +143,9 @@ fn contains(haystack: &[u8], needle: &[u8]) -> bool {
 /// The issue's memory targets for the board image (bytes): 256 KiB flash, 64 KiB RAM.
 const FLASH_TARGET: u64 = 256 * 1024;
 const RAM_TARGET: u64 = 64 * 1024;
+/// Initialised data of the board build (bytes): the RTT control block and a few atomics;
+/// anything of kilobytes is a blank that is not all zero bits.
+const DATA_LIMIT: u32 = 1024;
 
 fn sizes(f: &Footprint) -> String {
     let sections: Vec<String> = f
@@ -680,6 +683,20 @@ fn budget() -> Result<bool, String> {
     );
     if let Some(b) = &board_elf {
         let fp = footprint(b)?;
+        // Every kilobyte static (the candidate, the application) starts from a blank of zero
+        // bits, i.e. `.bss`: a non-zero field in one moves its whole image into flash.
+        let data = fp
+            .sections
+            .iter()
+            .filter(|s| s.name == ".data")
+            .map(|s| s.size)
+            .sum::<u32>();
+        if data > DATA_LIMIT {
+            failures.push(format!(
+                "board build: .data is {data} B (limit {DATA_LIMIT}): a static's initial value \
+                 is not all zero bits, and its image costs flash"
+            ));
+        }
         let ram = fp.static_ram as f64 + deepest_stack;
         let verdict = |ok: bool| if ok { "met" } else { "NOT met" };
         println!(
