@@ -717,6 +717,8 @@ impl Application {
                     w.store(safe.to_bits(), Relaxed);
                 }
                 crate::calibration::RUNNING_CHANNELS.store(self.channels() as u32, Relaxed);
+                let buses = crate::calibration::schedule(self.params(), &settings).buses;
+                crate::calibration::RUNNING_BUSES.store(u32::from(buses), Relaxed);
                 code::OK
             }
             // Another model, channel count or sample rate while not Idle.

@@ -215,6 +215,14 @@ pub static SAFE_DEMAND: [AtomicU32; BOARD_CHANNELS] =
     [const { AtomicU32::new(crate::config::SAFE_DEMAND_N.to_bits()) }; BOARD_CHANNELS];
 /// The running number of channels (see [`SAFE_DEMAND`]).
 pub static RUNNING_CHANNELS: AtomicU32 = AtomicU32::new(1);
+/// The buses the running configuration's channels are spread over (1 or 2, [`schedule`]):
+/// the transmit half routes each channel's frames by it.
+pub static RUNNING_BUSES: AtomicU32 = AtomicU32::new(1);
+
+/// The buses the running configuration uses ([`RUNNING_BUSES`]).
+pub fn running_buses() -> u8 {
+    RUNNING_BUSES.load(Ordering::Relaxed).clamp(1, 2) as u8
+}
 
 /// The safe demand of channel `ch` of the set installed last ([`SAFE_DEMAND`]).
 pub fn running_safe_demand(ch: usize) -> f32 {
@@ -269,8 +277,8 @@ fn word_code(e: WordError) -> u8 {
     }
 }
 
-/// The bus schedule of a configuration: its channels at its rate, channel `c` on CAN
-/// `c mod 2` when it has more than one (see `mil_frames::bus_load`); the aero model's
+/// The bus schedule of a configuration: its channels at its rate, on one bus when it fits
+/// there, else channel `c` on CAN `c mod 2` (`mil_frames::bus_load::Schedule::fitting`); the aero model's
 /// speed, and every channel's measured force for a substructure that takes forces.
 pub fn schedule(p: &Params, s: &Settings) -> Schedule {
     let channels = p.channels.min(BOARD_CHANNELS as u32) as u8;
@@ -286,7 +294,7 @@ pub fn schedule(p: &Params, s: &Settings) -> Schedule {
         Some(ModelKind::Substructure) => Schedule::substructure(channels, forces, rate),
         _ => Schedule::tyre(channels, rate),
     };
-    one_bus.on_buses(mil_frames::bus_load::buses_for(channels))
+    one_bus.fitting(BUS_BIT_PER_S)
 }
 
 /// The bus rate the schedules are budgeted for (bit/s): classic CAN at 1 Mbit/s.
@@ -901,6 +909,23 @@ mod tests {
             config(2500.0, ModelKind::Aero, 2.0).err(),
             Some(code::BUS_BUDGET)
         );
+        // One bus while it carries the configuration (a rig with one bus wired runs it),
+        // both beyond.
+        let buses = |rate: u16, kind: ModelKind, channels: u32| {
+            let mut p = default_params();
+            p.kind = kind as u32;
+            p.channels = channels;
+            let s = Settings {
+                sample_rate_hz: rate,
+                ..DEFAULT_SETTINGS
+            };
+            schedule(&p, &s).buses
+        };
+        assert_eq!(buses(2000, ModelKind::Tyre, 1), 1);
+        assert_eq!(buses(1000, ModelKind::Aero, 2), 1);
+        assert_eq!(buses(2000, ModelKind::Aero, 2), 2);
+        assert_eq!(buses(500, ModelKind::Tyre, 4), 1);
+        assert_eq!(buses(1000, ModelKind::Tyre, 4), 2);
     }
 
     /// A slow sample rate needs a watchdog of at least two of its periods (the limit is in

@@ -546,13 +546,13 @@ pub fn slcan_line(frame: &RawFrame, out: &mut [u8]) -> Option<usize> {
     slcan::format_frame(frame, out).ok()
 }
 
-/// The bus (0: CAN1, 1: CAN2) the frame with ID `id` goes on while `channels` channels run
-/// (`mil_frames::bus_load::bus_of`: a channel's frames on bus `channel mod 2` when there
-/// are several; the heartbeat, acknowledgements and XCP on CAN1).
-pub fn bus_of_frame(id: u16, channels: u32) -> u8 {
-    let channels = u8::try_from(channels).unwrap_or(u8::MAX);
+/// The bus (0: CAN1, 1: CAN2) the frame with ID `id` goes on while the running
+/// configuration spreads its channels over `buses` buses (`mil_frames::bus_load::bus_of`:
+/// a channel's frames on bus `channel mod buses`; the heartbeat, acknowledgements and XCP
+/// on CAN1).
+pub fn bus_of_frame(id: u16, buses: u8) -> u8 {
     match LAYOUT.classify(id) {
-        Ok((kind, channel)) => bus_load::bus_of(kind, channel, bus_load::buses_for(channels)),
+        Ok((kind, channel)) => bus_load::bus_of(kind, channel, buses),
         Err(_) => 0,
     }
 }
@@ -566,33 +566,27 @@ mod tests {
     use mil_frames::{encode_command, encode_measurement};
     use std::vec::Vec;
 
-    /// One channel: everything on CAN1. Several: each channel's frames on bus
+    /// On one bus everything on CAN1. On two: each channel's frames on bus
     /// `channel mod 2`, whatever their kind; the heartbeat, acknowledgements and XCP on CAN1.
     #[test]
     fn frames_take_their_channels_bus() {
         use mil_frames::MessageKind;
         let id = |kind, ch| LAYOUT.id(kind, ch).unwrap();
         for ch in 0..4 {
-            assert_eq!(bus_of_frame(id(MessageKind::Demand, ch), 1), 0);
-            for channels in 2..=4 {
-                for kind in [
-                    MessageKind::Measurement,
-                    MessageKind::MeasurementAux,
-                    MessageKind::Demand,
-                ] {
-                    assert_eq!(
-                        bus_of_frame(id(kind, ch), channels),
-                        ch % 2,
-                        "{kind:?} {ch}"
-                    );
-                }
+            for kind in [
+                MessageKind::Measurement,
+                MessageKind::MeasurementAux,
+                MessageKind::Demand,
+            ] {
+                assert_eq!(bus_of_frame(id(kind, ch), 1), 0, "{kind:?} {ch}");
+                assert_eq!(bus_of_frame(id(kind, ch), 2), ch % 2, "{kind:?} {ch}");
             }
         }
-        for channels in 1..=4 {
-            assert_eq!(bus_of_frame(id(MessageKind::Status, 0), channels), 0);
-            assert_eq!(bus_of_frame(id(MessageKind::CommandAck, 0), channels), 0);
-            assert_eq!(bus_of_frame(XCP_RESPONSE_ID, channels), 0);
-            assert_eq!(bus_of_frame(XCP_COMMAND_ID, channels), 0);
+        for buses in 1..=2 {
+            assert_eq!(bus_of_frame(id(MessageKind::Status, 0), buses), 0);
+            assert_eq!(bus_of_frame(id(MessageKind::CommandAck, 0), buses), 0);
+            assert_eq!(bus_of_frame(XCP_RESPONSE_ID, buses), 0);
+            assert_eq!(bus_of_frame(XCP_COMMAND_ID, buses), 0);
         }
     }
 

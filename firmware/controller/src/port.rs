@@ -5,7 +5,7 @@
 //! | | board (default) | QEMU (`--features qemu`) |
 //! | --- | --- | --- |
 //! | clocks | HSE 8 MHz → PLL → 168 MHz (APB1 42 MHz) | HSI 16 MHz (QEMU emulates no PLL) |
-//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX) and CAN2 (PB13 TX / PB12 RX), 1 Mbit/s, FIFO0 interrupts `CAN1_RX0` and `CAN2_RX0`; a configuration of several channels puts channel `c` on CAN `c mod 2` (`mil_firmware::link::bus_of_frame`), everything else and XCP on CAN1 | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes; XCP also on USART2 (PA2/PA3, QEMU `-serial` 1, interrupt `USART2`) |
+//! | frames | CAN1 (bxCAN, PB9 TX / PB8 RX) and CAN2 (PB13 TX / PB12 RX), 1 Mbit/s, FIFO0 interrupts `CAN1_RX0` and `CAN2_RX0`; a configuration one bus cannot carry within its budget puts channel `c` on CAN `c mod 2` (`mil_frames::bus_load::Schedule::fitting`, `mil_firmware::link::bus_of_frame`), everything else and XCP on CAN1 | SLCAN lines over USART1 (PA9/PA10, QEMU `-serial` 0), RXNE interrupt `USART1`, blocking writes; XCP also on USART2 (PA2/PA3, QEMU `-serial` 1, interrupt `USART2`) |
 //! | tick | TIM2 at the sample rate (2 kHz) | TIM2 every [`QEMU_TICK_US`](mil_firmware::config::QEMU_TICK_US) of QEMU time; stopped for good once the watchdog is switched off |
 //! | control-path clock ([`crate::clock::Clock`]) | SysTick, core cycles (started by `main`) | TIM5, prescaler 0: 1 GHz of QEMU virtual time, one count per instruction at `-icount shift=0` (started here) |
 
@@ -71,7 +71,7 @@ mod board {
     pub struct Tick(CounterHz<TIM2>);
 
     impl Transport for Tx {
-        /// Queues on the frame's bus ([`bus_of_frame`] for the running channel count) into
+        /// Queues on the frame's bus ([`bus_of_frame`] for the running configuration) into
         /// a free mailbox. When all three are busy, bxCAN replaces a pending frame of lower
         /// priority (higher ID: a Status, CommandAck or XCP packet behind a Demand): the new
         /// frame is queued, the replaced one is lost and counted in [`TX_DISPLACED`];
@@ -84,11 +84,10 @@ mod board {
                 return false;
             };
             let frame = bxcan::Frame::new_data(id, data);
-            let sent =
-                match bus_of_frame(f.id, mil_firmware::calibration::running_channels() as u32) {
-                    0 => self.can1.transmit(&frame),
-                    _ => self.can2.transmit(&frame),
-                };
+            let sent = match bus_of_frame(f.id, mil_firmware::calibration::running_buses()) {
+                0 => self.can1.transmit(&frame),
+                _ => self.can2.transmit(&frame),
+            };
             match sent {
                 Ok(status) => {
                     if status.dequeued_frame().is_some() {

@@ -70,16 +70,6 @@ pub const fn frame_bits_worst(dlc: u8) -> u32 {
     frame_bits(dlc) + stuff_bits_worst(dlc)
 }
 
-/// The buses a configuration of `channels` channels spreads them over: one for one
-/// channel, both of the board's for more (channel `c` on bus `c mod 2`).
-pub const fn buses_for(channels: u8) -> u8 {
-    if channels > 1 {
-        2
-    } else {
-        1
-    }
-}
-
 /// The bus (0: CAN1, 1: CAN2) a frame of `kind` for `channel` goes on when the channels
 /// are spread over `buses` buses: a per-channel frame on `channel mod buses`, the others
 /// (heartbeat, commands and their acknowledgements) on CAN1, as XCP.
@@ -229,6 +219,18 @@ impl Schedule {
             0.0
         } else {
             room / per_sample
+        }
+    }
+
+    /// The schedule on as few buses as carry it at `bit_per_s` within [`BUDGET`]: one bus
+    /// when it fits there (a rig with one bus wired runs it), else both of the board's when
+    /// it has several channels (channel `c` on bus `c mod 2`); one channel stays on one bus.
+    pub fn fitting(self, bit_per_s: f64) -> Self {
+        let one = self.on_buses(1);
+        if one.check(bit_per_s).is_ok() || self.channels < 2 {
+            one
+        } else {
+            self.on_buses(2)
         }
     }
 
