@@ -359,3 +359,37 @@ fn a_hardfault_leaves_the_safe_demand_and_says_why() {
             .unwrap_or("")
     );
 }
+
+/// The bit-for-bit comparison can fail: a mirror given a tyre 4 % stiffer than the
+/// firmware's (the firmware keeps its defaults) differs from the firmware's demand frames
+/// as soon as the road moves the tyre, and the differing frames are counted (what makes
+/// `mil sim --board qemu` fail), while the frames at rest still agree.
+#[test]
+fn a_mirror_that_differs_is_caught() {
+    let (qemu, mut board) = start_qemu();
+    let mut other = mil_firmware::config::default_params();
+    other.tyre.tyre[0].stiffness *= 1.04;
+    board.set_mirror(&other, (1.0 / FS) as f32).unwrap();
+    board.start().unwrap();
+    let at = |road: f32| ModelInput {
+        road: [road],
+        ..ModelInput::default()
+    };
+    for _ in 0..20 {
+        board.step(&at(0.0)).unwrap();
+    }
+    assert_eq!(board.mismatches(), 0, "at rest the stiffness plays no part");
+    for _ in 0..20 {
+        board.step(&at(0.005)).unwrap();
+    }
+    assert!(
+        board.mismatches() > 0,
+        "a 4 % stiffer mirror went unnoticed"
+    );
+    let first = board.samples().iter().position(|s| s.mismatch()).unwrap();
+    assert!(
+        first >= 20,
+        "the first differing frame is at sample {first}"
+    );
+    finish(qemu, board);
+}
