@@ -658,7 +658,6 @@ impl BoardController {
     }
 }
 
-/// An idle controller of the configuration `p`.
 /// Makes `running` an idle controller of `p`, in place: the substructure's (kilobytes)
 /// into a zero-filled [`SUB_RUNNING`], the others (hundreds of bytes) by value.
 #[inline(never)]
