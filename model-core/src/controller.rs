@@ -504,7 +504,11 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
                     max: configured.max.max(d),
                     rate: configured.rate,
                 };
-                self.settling = true;
+                // Limits widened to hold the demand close in on the configured ones; a
+                // demand inside them leaves nothing to settle.
+                if *active != *configured {
+                    self.settling = true;
+                }
             }
         }
     }
