@@ -478,7 +478,9 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         {
             self.blend = true;
         }
-        self.settling = true;
+        // Something to settle: a blend to fade, or active limits to move to the new ones
+        // (a change of other parameters leaves the steady step as it is).
+        self.settling = self.settling || self.blend || self.active_limits != new.limits;
         self.prepared.copy_from(prepared);
         Ok(())
     }
