@@ -478,8 +478,19 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
         {
             self.blend = true;
         }
-        // Something to settle: a blend to fade, or active limits to move to the new ones
-        // (a change of other parameters leaves the steady step as it is).
+        // The active limits take the new ones at once where that cuts no demand (as the
+        // step's `towards` would, here rather than in the first step after the swap);
+        // a bound that would cut a demand starts at it and closes in step by step.
+        for ((active, configured), limiter) in self
+            .active_limits
+            .iter_mut()
+            .zip(&new.limits)
+            .zip(&self.limiter)
+        {
+            *active = active.towards(configured, limiter.output, 0.0);
+        }
+        // Something to settle: a blend to fade, or a bound still closing in (a change that
+        // leaves the limits as they are keeps the steady step).
         self.settling = self.settling || self.blend || self.active_limits != new.limits;
         self.prepared.copy_from(prepared);
         Ok(())

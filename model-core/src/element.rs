@@ -163,13 +163,34 @@ impl ElementLaw {
             + self.cubic_stiffness * x * x * x
             + self.quadratic_damping * v * v.abs()
             + friction
-            + self.bump_stiffness * (x - self.bump_gap).max(0.0)
-            + self.rebound_stiffness * (x + self.rebound_gap).min(0.0);
+            + self.bump_stiffness * positive_part(x - self.bump_gap)
+            + self.rebound_stiffness * negative_part(x + self.rebound_gap);
         if self.lift_off != 0 && self.preload + f < 0.0 {
             -self.preload
         } else {
             f
         }
+    }
+}
+
+/// `max(x, 0)` by a compare (on the Cortex-M4 `f32::max` is a call to `fmaxf`); `x` is
+/// finite here (the state and the inputs are checked).
+#[inline]
+fn positive_part(x: f32) -> f32 {
+    if x > 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
+
+/// `min(x, 0)` by a compare (see [`positive_part`]).
+#[inline]
+fn negative_part(x: f32) -> f32 {
+    if x < 0.0 {
+        x
+    } else {
+        0.0
     }
 }
 

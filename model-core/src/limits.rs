@@ -38,20 +38,26 @@ impl DemandLimits {
     /// `max_step` a step (the rate limit's step). The rate is `target`'s.
     #[inline]
     pub fn towards(&self, target: &Self, demand: f32, max_step: f32) -> Self {
-        let max = if target.max >= self.max.min(demand) {
+        // Compares, not `f32::min`/`max` (calls to `fminf`/`fmaxf` on the Cortex-M4): every
+        // value here is finite (validated limits, a demand the controller keeps finite).
+        let lesser = |a: f32, b: f32| if a < b { a } else { b };
+        let greater = |a: f32, b: f32| if a > b { a } else { b };
+        let upper = lesser(self.max, demand);
+        let max = if target.max >= upper {
             target.max
         } else {
-            (self.max.min(demand) - max_step).max(target.max)
+            greater(upper - max_step, target.max)
         };
-        let min = if target.min <= self.min.max(demand) {
+        let lower = greater(self.min, demand);
+        let min = if target.min <= lower {
             target.min
         } else {
-            (self.min.max(demand) + max_step).min(target.min)
+            lesser(lower + max_step, target.min)
         };
         Self {
             // A bound still closing in never crosses the other bound's new value.
-            min: min.min(target.max),
-            max: max.max(target.min),
+            min: lesser(min, target.max),
+            max: greater(max, target.min),
             rate: target.rate,
         }
     }
