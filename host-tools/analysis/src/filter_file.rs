@@ -11,6 +11,11 @@
 //! Sections are model-core's delta-form second-order sections
 //! ([`model_core::BiquadCoefficients`]: `β0 = b0`, `β1 = 2 b0 + b1`, `β2 = b0 + b1 + b2`,
 //! `α1 = 2 + a1`, `α2 = 1 + a1 + a2`), at most [`model_core::MAX_SECTIONS`], run in order.
+//! Each section also carries, for other tools, its plain direct form in the scipy / MATLAB
+//! `sos` convention (`[b0, b1, b2, 1, a1, a2]`, `H(z) = (b0 + b1 z⁻¹ + b2 z⁻²) /
+//! (1 + a1 z⁻¹ + a2 z⁻²)`) and its zeros and poles (`[re, im]` pairs in the z-plane), all
+//! derived from the delta form in `f64`; on reading, the delta form is what runs, and a file
+//! whose `sos` disagrees with it is refused.
 
 use crate::error::{AnalysisError, Result};
 use model_core::{BiquadCoefficients, CascadeCoefficients};
@@ -21,7 +26,7 @@ use std::path::Path;
 pub const FILTER_FORMAT: &str = "mil-command-filter";
 
 /// One delta-form section as stored in the file (f32 values).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SectionRecord {
     /// `β0`.
@@ -34,6 +39,67 @@ pub struct SectionRecord {
     pub alpha1: f32,
     /// `α2`.
     pub alpha2: f32,
+    /// The same section in the `sos` convention `[b0, b1, b2, 1, a1, a2]` (informative;
+    /// checked against the delta form when present).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sos: Option<[f64; 6]>,
+    /// Its zeros, `[re, im]` (informative; 0 to 2 of them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zeros: Option<Vec<[f64; 2]>>,
+    /// Its poles, `[re, im]` (informative; 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poles: Option<Vec<[f64; 2]>>,
+}
+
+impl SectionRecord {
+    /// The record of `s`, with its direct form, zeros and poles.
+    pub fn of(s: &BiquadCoefficients) -> Self {
+        let ([b0, b1, b2], [a1, a2]) = s.to_direct_form();
+        Self {
+            beta0: s.beta0,
+            beta1: s.beta1,
+            beta2: s.beta2,
+            alpha1: s.alpha1,
+            alpha2: s.alpha2,
+            sos: Some([b0, b1, b2, 1.0, a1, a2]),
+            zeros: Some(roots(b0, b1, b2)),
+            poles: Some(roots(1.0, a1, a2)),
+        }
+    }
+
+    fn coefficients(&self) -> BiquadCoefficients {
+        BiquadCoefficients {
+            beta0: self.beta0,
+            beta1: self.beta1,
+            beta2: self.beta2,
+            alpha1: self.alpha1,
+            alpha2: self.alpha2,
+        }
+    }
+}
+
+/// The roots `[re, im]` of `c0 z² + c1 z + c2` (a leading zero coefficient lowers the
+/// degree; none for a constant).
+pub fn roots(c0: f64, c1: f64, c2: f64) -> Vec<[f64; 2]> {
+    if c0 == 0.0 {
+        return if c1 == 0.0 {
+            Vec::new()
+        } else {
+            vec![[-c2 / c1, 0.0]]
+        };
+    }
+    let (p, q) = (c1 / c0, c2 / c0);
+    let d = p * p / 4.0 - q;
+    if d >= 0.0 {
+        // The larger root first, the other from the product (no cancellation).
+        let r1 = -p / 2.0 - (p / 2.0).signum() * d.sqrt();
+        let r1 = if r1 == 0.0 { -p / 2.0 + d.sqrt() } else { r1 };
+        let r2 = if r1 == 0.0 { 0.0 } else { q / r1 };
+        vec![[r1, 0.0], [r2, 0.0]]
+    } else {
+        let im = (-d).sqrt();
+        vec![[-p / 2.0, im], [-p / 2.0, -im]]
+    }
 }
 
 /// A command-filter file.
@@ -60,17 +126,7 @@ impl FilterFile {
             format: FILTER_FORMAT.into(),
             version: 1,
             sample_rate_hz,
-            sections: cascade
-                .active()
-                .iter()
-                .map(|s| SectionRecord {
-                    beta0: s.beta0,
-                    beta1: s.beta1,
-                    beta2: s.beta2,
-                    alpha1: s.alpha1,
-                    alpha2: s.alpha2,
-                })
-                .collect(),
+            sections: cascade.active().iter().map(SectionRecord::of).collect(),
             figures: None,
         }
     }
@@ -94,14 +150,27 @@ impl FilterFile {
         let sections: Vec<BiquadCoefficients> = self
             .sections
             .iter()
-            .map(|s| BiquadCoefficients {
-                beta0: s.beta0,
-                beta1: s.beta1,
-                beta2: s.beta2,
-                alpha1: s.alpha1,
-                alpha2: s.alpha2,
-            })
+            .map(SectionRecord::coefficients)
             .collect();
+        for (k, (record, s)) in self.sections.iter().zip(&sections).enumerate() {
+            if let Some(sos) = record.sos {
+                let ([b0, b1, b2], [a1, a2]) = s.to_direct_form();
+                let want = [b0, b1, b2, 1.0, a1, a2];
+                // The delta form is f32: agreement to its precision, scaled by the section.
+                let scale = want.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+                let off = sos
+                    .iter()
+                    .zip(want)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0_f64, f64::max);
+                if off > 1e-9 * scale {
+                    return Err(bad(format!(
+                        "section {k}: its sos {sos:?} is not its delta form's {want:?} (the \
+                         delta form runs: fix or drop the sos)"
+                    )));
+                }
+            }
+        }
         let cascade = CascadeCoefficients::from_sections(&sections).ok_or_else(|| {
             bad(format!(
                 "{} sections; at most {} fit model-core",

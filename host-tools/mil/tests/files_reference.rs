@@ -62,13 +62,9 @@ fn every_key_and_constant_is_documented() {
         ..FilterFile::new(&model_core::CascadeCoefficients::IDENTITY, 2000.0)
     };
     let mut value = serde_json::to_value(&file).unwrap();
-    let section = serde_json::to_value(mil_analysis::filter_file::SectionRecord {
-        beta0: 1.0,
-        beta1: 2.0,
-        beta2: 1.0,
-        alpha1: 2.0,
-        alpha2: 1.0,
-    })
+    let section = serde_json::to_value(mil_analysis::filter_file::SectionRecord::of(
+        &model_core::BiquadCoefficients::IDENTITY,
+    ))
     .unwrap();
     let mut keys: Vec<String> = value.as_object_mut().unwrap().keys().cloned().collect();
     keys.extend(section.as_object().unwrap().keys().cloned());
