@@ -378,6 +378,14 @@ fn run(cli: Cli) -> Result<()> {
                 outln!("time histories: {}", csv.display());
                 outln!("plot:           {}", svg.display());
             }
+            // A faulted run is a failed one: the files are complete, the status says so.
+            if let Some(t) = result.summary.fault_at_s {
+                anyhow::bail!(
+                    "the controller faulted at {t:.4} s: {} ({} holds the whole run)",
+                    mil::run::fault_causes(result.summary.fault_flags),
+                    csv.display()
+                );
+            }
             Ok(())
         }
         Command::DesignFilter {
@@ -554,6 +562,13 @@ fn run(cli: Cli) -> Result<()> {
                 for p in &plots {
                     outln!("plot:           {}", p.display());
                 }
+            }
+            if let Some(t) = result.summary.fault_at_s {
+                anyhow::bail!(
+                    "the controller faulted at {t:.4} s: {} ({} holds the whole run)",
+                    mil::run::fault_causes(result.summary.fault_flags),
+                    csv.display()
+                );
             }
             // The image must do what the host code does: a differing frame fails the run.
             if let Some(q) = qemu.as_ref().filter(|q| q.mismatches > 0) {

@@ -262,15 +262,42 @@ impl RunOutput {
                 c.rate_limited_samples
             );
         }
-        out += &match s.fault_at_s {
-            Some(t) => format!("FAULT at {t:.4} s (flags {:#04x})\n", s.fault_flags),
-            None => "no fault\n".to_string(),
-        };
+        out += &fault_line(s.fault_at_s, s.fault_flags);
         out += &format!(
             "host throughput: {:.2e} steps/s (informational)\n",
             s.host_steps_per_s
         );
         out
+    }
+}
+
+/// The controller's fault causes (model-core's `fault` bits), in words.
+pub fn fault_causes(flags: u8) -> String {
+    use model_core::fault::{INVALID_INPUT, NUMERICAL};
+    let mut causes = Vec::new();
+    if flags & INVALID_INPUT != 0 {
+        causes.push(
+            "invalid input: a measurement non-finite or beyond the model's range (a road or \
+             position given in mm instead of m?)",
+        );
+    }
+    if flags & NUMERICAL != 0 {
+        causes.push("numerical: a non-finite value inside the model or the command filter");
+    }
+    if flags & !(INVALID_INPUT | NUMERICAL) != 0 || causes.is_empty() {
+        causes.push("another cause");
+    }
+    format!("{} (flags {flags:#04x})", causes.join("; "))
+}
+
+/// The summary's fault line: none, or when and why (the demand then ramps to the safe one).
+pub fn fault_line(fault_at_s: Option<f64>, flags: u8) -> String {
+    match fault_at_s {
+        Some(t) => format!(
+            "FAULT at {t:.4} s: {}; the demand ramps to the safe demand from there\n",
+            fault_causes(flags)
+        ),
+        None => "no fault\n".to_string(),
     }
 }
 

@@ -980,10 +980,7 @@ impl SimOutput {
                 );
             }
         }
-        out += &match s.fault_at_s {
-            Some(t) => format!("FAULT at {t:.4} s (flags {:#04x})\n", s.fault_flags),
-            None => "no fault\n".to_string(),
-        };
+        out += &crate::run::fault_line(s.fault_at_s, s.fault_flags);
         out += &format!(
             "links: {} frames, {} dropped, {} corrupted | real-time factor {:.0}x (informational)\n",
             s.links.frames, s.links.dropped, s.links.corrupted, s.realtime_factor

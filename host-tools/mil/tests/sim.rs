@@ -304,3 +304,54 @@ fn bad_rig_configurations_are_refused() {
     );
     assert!(SetUp::from_toml(&typo, &examples()).is_err());
 }
+
+/// A run that faults (the road given in mm: an RMS of 0.5 "m") is a failed run: `mil run`
+/// and `mil sim` print the fault's time and its cause in words, exit non-zero, and leave
+/// complete files behind.
+#[test]
+fn a_faulted_run_names_its_cause_and_fails() {
+    let dir = std::env::temp_dir().join(format!("mil-fault-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        examples().join("tyre-physical.toml"),
+        dir.join("tyre-physical.toml"),
+    )
+    .unwrap();
+    let setup = dir.join("tyre-mm.toml");
+    std::fs::write(
+        &setup,
+        text("tyre.toml", 1.0, &[("rms_m = 0.0005", "rms_m = 0.5")]),
+    )
+    .unwrap();
+    for command in ["run", "sim"] {
+        let out_dir = dir.join(command);
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
+            .args([
+                command,
+                setup.to_str().unwrap(),
+                "--out",
+                out_dir.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert!(!out.status.success(), "{command}: {stdout}");
+        assert!(
+            stdout.contains("FAULT at") && stdout.contains("invalid input"),
+            "{command}: {stdout}"
+        );
+        assert!(
+            stderr.contains("the controller faulted at") && stderr.contains("in mm"),
+            "{command}: {stderr}"
+        );
+        let csv = std::fs::read_to_string(out_dir.join(format!("{command}.csv"))).unwrap();
+        assert!(
+            csv.lines().count() > 1900,
+            "{command}: the whole second is written"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
