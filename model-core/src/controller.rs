@@ -200,22 +200,9 @@ impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
         })
     }
 
-    /// As [`PreparedParams::new`], in place (no temporary of the model's coefficients);
+    /// As [`PreparedParams::new`] of the set `fill` writes into this one's, in place (no
+    /// temporary of the set or of the model's coefficients, kilobytes for a substructure);
     /// on error `self` holds no valid set and must not be swapped in.
-    pub fn prepare_into(
-        &mut self,
-        params: &ControllerParams<M::Params, CH>,
-        dt: f32,
-    ) -> Result<(), ParamError> {
-        Self::check(params, dt)?;
-        M::prepare_into(&params.model, dt, &mut self.model)?;
-        self.params = *params;
-        self.dt = dt;
-        Ok(())
-    }
-
-    /// As [`PreparedParams::prepare_into`] of the set `fill` writes into this one's, in
-    /// place (no copy of a kilobyte set on the stack); on error `self` holds no valid set.
     pub fn prepare_in_place(
         &mut self,
         dt: f32,
@@ -229,7 +216,7 @@ impl<M: Model<CH>, const CH: usize> PreparedParams<M, CH> {
     }
 
     /// A set of `params` with the model's coefficients `model`, not validated: only as a
-    /// place to [`PreparedParams::prepare_into`].
+    /// place to [`PreparedParams::prepare_in_place`].
     pub(crate) const fn unprepared(
         params: ControllerParams<M::Params, CH>,
         model: M::Prepared,
@@ -320,6 +307,17 @@ pub struct Status {
     pub invalid_input: u8,
 }
 
+impl Status {
+    /// Idle, nothing latched or limited (all zero bits).
+    pub const IDLE: Self = Self {
+        mode: Mode::Idle,
+        fault: 0,
+        amplitude_limited: 0,
+        rate_limited: 0,
+        invalid_input: 0,
+    };
+}
+
 /// The offset that carries the demand target across a parameter change, fading to zero.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Fade {
@@ -368,43 +366,15 @@ pub struct Controller<M: Model<CH>, const CH: usize> {
 impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
     /// A controller in [`Mode::Idle`] with its demand at the safe demand.
     pub fn new(prepared: PreparedParams<M, CH>) -> Self {
-        let mut limiter = [RateLimiter::new(0.0); CH];
-        for (l, safe) in limiter.iter_mut().zip(&prepared.params.safe_demand) {
-            *l = RateLimiter::new(*safe);
-        }
-        Self {
-            active_limits: prepared.params.limits,
-            prepared,
-            model: M::new(),
-            filter: [CascadeState::ZERO; CH],
-            limiter,
-            fade: [Fade::default(); CH],
-            blend: false,
-            settling: false,
-            mode: Mode::Idle,
-            fault: 0,
-            needs_reset: true,
-            status: Status {
-                mode: Mode::Idle,
-                fault: 0,
-                amplitude_limited: 0,
-                rate_limited: 0,
-                invalid_input: 0,
-            },
-        }
+        let mut c = Self::blank(prepared, M::new());
+        c.restart();
+        c
     }
 
     /// A controller holding `prepared` and `model` with every other field zero (Idle,
     /// demand zero, no reset pending): not one to run, a place to
     /// [`Controller::install`] into. With all-zero arguments it is all zero bits.
     pub(crate) const fn blank(prepared: PreparedParams<M, CH>, model: M) -> Self {
-        let idle = Status {
-            mode: Mode::Idle,
-            fault: 0,
-            amplitude_limited: 0,
-            rate_limited: 0,
-            invalid_input: 0,
-        };
         Self {
             prepared,
             model,
@@ -424,7 +394,7 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
             mode: Mode::Idle,
             fault: 0,
             needs_reset: false,
-            status: idle,
+            status: Status::IDLE,
         }
     }
 
@@ -432,25 +402,29 @@ impl<M: Model<CH>, const CH: usize> Controller<M, CH> {
     /// demand at the safe demand), in place: no temporary of the (kilobyte) whole.
     pub fn install(&mut self, prepared: &PreparedParams<M, CH>) {
         self.prepared.copy_from(prepared);
+        self.restart();
+    }
+
+    /// Everything but the parameters back to a fresh controller's: Idle, the model at
+    /// rest, the demand at the safe demand, the configured limits, nothing to settle.
+    fn restart(&mut self) {
         self.model = M::new();
         self.filter = [CascadeState::ZERO; CH];
-        for (l, safe) in self.limiter.iter_mut().zip(&prepared.params.safe_demand) {
+        for (l, safe) in self
+            .limiter
+            .iter_mut()
+            .zip(&self.prepared.params.safe_demand)
+        {
             *l = RateLimiter::new(*safe);
         }
-        self.active_limits = prepared.params.limits;
+        self.active_limits = self.prepared.params.limits;
         self.fade = [Fade::default(); CH];
         self.blend = false;
         self.settling = false;
         self.mode = Mode::Idle;
         self.fault = 0;
         self.needs_reset = true;
-        self.status = Status {
-            mode: Mode::Idle,
-            fault: 0,
-            amplitude_limited: 0,
-            rate_limited: 0,
-            invalid_input: 0,
-        };
+        self.status = Status::IDLE;
     }
 
     /// Validates `params` for sample period `dt` and builds an idle controller.

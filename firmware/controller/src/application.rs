@@ -117,7 +117,7 @@ pub struct Demand {
 }
 
 /// The counters reported in the status frame (cumulative since reset, wrapping).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Counters {
     /// Valid measurements received.
     pub measurements: u32,
@@ -141,8 +141,14 @@ pub struct Counters {
     pub tx_dropped: u32,
 }
 
+impl Default for Counters {
+    fn default() -> Self {
+        Self::ZERO
+    }
+}
+
 impl Counters {
-    /// All zero (as `Default`, usable in a `const`).
+    /// All zero (the `Default`, usable in a `const`).
     pub const ZERO: Self = Self {
         measurements: 0,
         steps: 0,

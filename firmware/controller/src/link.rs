@@ -551,6 +551,9 @@ pub fn slcan_line(frame: &RawFrame, out: &mut [u8]) -> Option<usize> {
 /// a channel's frames on bus `channel mod buses`; the heartbeat, acknowledgements and XCP
 /// on CAN1).
 pub fn bus_of_frame(id: u16, buses: u8) -> u8 {
+    if buses < 2 {
+        return 0; // one bus: no frame to classify (the common case, per demand frame)
+    }
     match LAYOUT.classify(id) {
         Ok((kind, channel)) => bus_load::bus_of(kind, channel, buses),
         Err(_) => 0,

@@ -78,28 +78,12 @@ impl SectionRecord {
     }
 }
 
-/// The roots `[re, im]` of `c0 z² + c1 z + c2` (a leading zero coefficient lowers the
-/// degree; none for a constant).
-pub fn roots(c0: f64, c1: f64, c2: f64) -> Vec<[f64; 2]> {
-    if c0 == 0.0 {
-        return if c1 == 0.0 {
-            Vec::new()
-        } else {
-            vec![[-c2 / c1, 0.0]]
-        };
-    }
-    let (p, q) = (c1 / c0, c2 / c0);
-    let d = p * p / 4.0 - q;
-    if d >= 0.0 {
-        // The larger root first, the other from the product (no cancellation).
-        let r1 = -p / 2.0 - (p / 2.0).signum() * d.sqrt();
-        let r1 = if r1 == 0.0 { -p / 2.0 + d.sqrt() } else { r1 };
-        let r2 = if r1 == 0.0 { 0.0 } else { q / r1 };
-        vec![[r1, 0.0], [r2, 0.0]]
-    } else {
-        let im = (-d).sqrt();
-        vec![[-p / 2.0, im], [-p / 2.0, -im]]
-    }
+/// The roots `[re, im]` of `c0 z² + c1 z + c2` (`mil_discretise::polynomial_roots`: a
+/// leading zero coefficient lowers the degree; none for a constant or zero polynomial).
+fn roots(c0: f64, c1: f64, c2: f64) -> Vec<[f64; 2]> {
+    mil_discretise::polynomial_roots(&[c0, c1, c2])
+        .map(|r| r.iter().map(|z| [z.re, z.im]).collect())
+        .unwrap_or_default()
 }
 
 /// A command-filter file.
