@@ -808,65 +808,6 @@ impl Objective<'_> {
     }
 }
 
-/// Nelder–Mead minimisation (standard coefficients 1, 2, 0.5, 0.5) from `start` with
-/// initial steps `step`, for `iterations` iterations. A few dozen lines; the problem is
-/// small and smooth enough that an optimisation crate would add more than it saves.
-fn nelder_mead(
-    f: impl Fn(&[f64]) -> f64,
-    start: &[f64],
-    step: &[f64],
-    iterations: usize,
-) -> Vec<f64> {
-    let n = start.len();
-    let mut simplex: Vec<(Vec<f64>, f64)> = (0..=n)
-        .map(|i| {
-            let mut x = start.to_vec();
-            if i > 0 {
-                x[i - 1] += step[i - 1];
-            }
-            let v = f(&x);
-            (x, v)
-        })
-        .collect();
-    let blend = |a: &[f64], b: &[f64], t: f64| -> Vec<f64> {
-        a.iter().zip(b).map(|(x, y)| x + t * (y - x)).collect()
-    };
-    for _ in 0..iterations {
-        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let centroid: Vec<f64> = (0..n)
-            .map(|j| simplex[..n].iter().map(|p| p.0[j]).sum::<f64>() / n as f64)
-            .collect();
-        let worst = simplex[n].clone();
-        let reflected = blend(&centroid, &worst.0, -1.0);
-        let fr = f(&reflected);
-        if fr < simplex[0].1 {
-            let expanded = blend(&centroid, &worst.0, -2.0);
-            let fe = f(&expanded);
-            simplex[n] = if fe < fr {
-                (expanded, fe)
-            } else {
-                (reflected, fr)
-            };
-        } else if fr < simplex[n - 1].1 {
-            simplex[n] = (reflected, fr);
-        } else {
-            let contracted = blend(&centroid, &worst.0, 0.5);
-            let fc = f(&contracted);
-            if fc < worst.1.min(fr) {
-                simplex[n] = (contracted, fc);
-            } else {
-                let best = simplex[0].0.clone();
-                for p in simplex.iter_mut().skip(1) {
-                    p.0 = blend(&best, &p.0, 0.5);
-                    p.1 = f(&p.0);
-                }
-            }
-        }
-    }
-    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-    simplex.swap_remove(0).0
-}
-
 /// The optimised design over `weights` (see the module documentation), with the
 /// trade-off front; `progress` is called after each weight.
 ///
@@ -921,7 +862,12 @@ pub fn design_optimal(
     let mut x = start;
     for (i, &w) in weights.iter().enumerate() {
         // Warm start from the previous weight's optimum: the front is traced continuously.
-        x = nelder_mead(|p| objective.cost(p, w), &x, &step, 80 * (x.len() + 1));
+        x = mil_numerics::optimise::nelder_mead(
+            |p| objective.cost(p, w),
+            &x,
+            &step,
+            80 * (x.len() + 1),
+        );
         if let Some(continuous) = objective.filter(&x) {
             if let Ok(design) = finish(&bare, &objective.base, continuous, options, pick) {
                 front.push(FrontPoint {

@@ -22,5 +22,6 @@ pub mod dense;
 pub mod expm;
 pub mod filter;
 pub mod interpolate;
+pub mod optimise;
 pub mod record;
 pub mod rng;
