@@ -23,6 +23,7 @@ pub mod design;
 pub mod error;
 pub mod examples;
 pub mod filter_file;
+pub mod measured;
 pub mod metrics;
 pub mod poly;
 pub mod position_servo;

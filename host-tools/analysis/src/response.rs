@@ -39,6 +39,9 @@ pub enum ResponseSource {
     },
     /// A measured frequency-response table, interpolated (see [`mil_identify::FrfTable`]).
     Table(FrfTable),
+    /// A measured tracking table extended beyond its band by its fitted low-order model
+    /// ([`crate::measured`]): defined at every frequency.
+    Measured(Box<crate::measured::MeasuredResponse>),
     /// Identically zero (e.g. the disturbance response of an ideal actuator).
     Zero,
 }
@@ -69,6 +72,7 @@ impl ResponseSource {
                     table.points().len()
                 )
             }
+            Self::Measured(m) => m.describe(),
             Self::Zero => "none (zero)".to_string(),
         }
     }
@@ -95,6 +99,7 @@ impl ResponseSource {
                     * Complex64::from_polar(1.0, -TAU * frequency_hz * delay_s)
             }
             Self::Table(table) => table.response(frequency_hz)?,
+            Self::Measured(m) => m.response(frequency_hz),
             Self::Zero => Complex64::new(0.0, 0.0),
         })
     }
@@ -117,6 +122,7 @@ impl ResponseSource {
                     "a measured table has no values off the imaginary axis",
                 ))
             }
+            Self::Measured(m) => m.response_s(s),
             Self::Zero => Complex64::new(0.0, 0.0),
         })
     }

@@ -66,6 +66,7 @@ use crate::analyze::{AnalysisOptions, ResponseSpec, Signal};
 use crate::error::{setup_error, Result};
 use crate::examples::{aero_structure, two_dof_structure, tyre_structure, Structure};
 use crate::filter_file::FilterFile;
+use crate::measured::MeasuredResponse;
 use crate::poly::Rational;
 use crate::response::LinearActuator;
 use crate::response::{CommandFilter, ResponseSource};
@@ -630,8 +631,13 @@ fn response(
             let frf = FrfTable::read_csv(&path)?;
             if what == "tracking" {
                 check_tracking_gain(&frf, &path)?;
+                ResponseSource::Measured(Box::new(MeasuredResponse::new(
+                    frf,
+                    &path.display().to_string(),
+                )?))
+            } else {
+                ResponseSource::Table(frf)
             }
-            ResponseSource::Table(frf)
         }
     })
 }

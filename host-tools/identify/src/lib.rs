@@ -84,6 +84,7 @@
 
 pub mod error;
 pub mod excitation;
+pub mod fit;
 pub mod record;
 pub mod table;
 pub mod welch;
@@ -92,6 +93,7 @@ pub use error::{IdentifyError, Result};
 pub use excitation::{
     band_limited_noise, log_sine_sweep, try_band_limited_noise, try_log_sine_sweep,
 };
+pub use fit::LowOrderFit;
 pub use num_complex::Complex64;
 pub use record::{read_record_csv, read_record_from_reader};
 pub use table::{unwrap_phase_deg, FrfPoint, FrfTable, CSV_COLUMNS};

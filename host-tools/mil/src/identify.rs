@@ -3,9 +3,13 @@
 //! that `mil analyze` reads.
 
 use anyhow::{bail, Context, Result};
+use mil_analysis::measured::MeasuredResponse;
 use mil_identify::{h1_estimate, read_record_csv, FrfTable, Record, WelchOptions};
+use mil_plots::{
+    bode_svg, xy_svg, BodePlot, BodeSeries, MagnitudeScale, Marker, SeriesStyle, XyPlot, XySeries,
+};
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Options of `mil identify`.
 #[derive(Clone, Debug)]
@@ -44,6 +48,34 @@ pub struct IdentifySummary {
     pub min_coherence: f64,
     /// The table file.
     pub table: String,
+    /// Read as an actuator's tracking response (what `[actuator] tracking = { table = .. }`
+    /// does with it): its bandwidth, equivalent delay and fitted model, or why `mil analyze`
+    /// would refuse it.
+    pub tracking: Tracking,
+    /// Plots written: the Bode diagram of the table with the fitted model, and the
+    /// coherence.
+    pub plots: Vec<String>,
+}
+
+/// The table read as a tracking response.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tracking {
+    /// `mil analyze` and `mil design-filter` can use it, extended by its fitted model.
+    Usable {
+        /// −3 dB bandwidth from the measurement (Hz).
+        bandwidth_hz: f64,
+        /// Phase lag at the bandwidth as a delay (ms).
+        equivalent_delay_ms: f64,
+        /// The fitted model, in words.
+        model: String,
+        /// RMS magnitude difference between the model and the table (dB).
+        fit_rms_db: f64,
+        /// RMS phase difference (degrees).
+        fit_rms_deg: f64,
+    },
+    /// Why the analysis would refuse it (e.g. it stops short of the bandwidth).
+    Refused(String),
 }
 
 /// Runs the identification and writes the table.
@@ -88,7 +120,23 @@ pub fn run_identify(o: &IdentifyOptions) -> Result<(FrfTable, IdentifySummary)> 
     };
     let estimate = h1_estimate(&records, fs, &options)?;
     let table = estimate.to_table(o.band_hz.0, o.band_hz.1, o.min_coherence)?;
-    table.write_csv(&o.out)?;
+    crate::cli::write_atomic(&o.out, |w| Ok(table.to_writer(w)?))?;
+    let measured = MeasuredResponse::new(table.clone(), &o.out.display().to_string());
+    let plots = write_plots(&table, measured.as_ref().ok(), &o.out, &o.input, &o.output)?;
+    let tracking = match &measured {
+        Ok(m) => {
+            let (bandwidth_hz, delay_s) = m.bandwidth();
+            Tracking::Usable {
+                bandwidth_hz,
+                equivalent_delay_ms: delay_s * 1e3,
+                model: m.fit().describe(),
+                fit_rms_db: m.fit().rms_db,
+                fit_rms_deg: m.fit().rms_deg,
+            }
+        }
+        Err(mil_analysis::AnalysisError::Setup(why)) => Tracking::Refused(why.clone()),
+        Err(e) => Tracking::Refused(e.to_string()),
+    };
     let points = table.points();
     let summary = IdentifySummary {
         sample_rate_hz: fs,
@@ -101,8 +149,123 @@ pub fn run_identify(o: &IdentifyOptions) -> Result<(FrfTable, IdentifySummary)> 
             .filter_map(|p| p.coherence)
             .fold(1.0, f64::min),
         table: o.out.display().to_string(),
+        tracking,
+        plots: plots.iter().map(|p| p.display().to_string()).collect(),
     };
     Ok((table, summary))
+}
+
+impl IdentifySummary {
+    /// The summary as lines of text.
+    pub fn text(&self) -> String {
+        let mut out = format!(
+            "{} points, {:.2}-{:.1} Hz, {} segments of {} samples at {} Hz, lowest coherence \
+             {:.3}\n",
+            self.points,
+            self.frequency_range_hz.0,
+            self.frequency_range_hz.1,
+            self.segments,
+            self.segment_length,
+            self.sample_rate_hz,
+            self.min_coherence,
+        );
+        match &self.tracking {
+            Tracking::Usable {
+                bandwidth_hz,
+                equivalent_delay_ms,
+                model,
+                fit_rms_db,
+                fit_rms_deg,
+            } => out.push_str(&format!(
+                "as a tracking response: bandwidth (-3 dB) {bandwidth_hz:.1} Hz, equivalent \
+                 delay {equivalent_delay_ms:.2} ms (the phase lag there)\nfitted model: \
+                 {model} ({fit_rms_db:.2} dB / {fit_rms_deg:.1} deg RMS); `mil analyze` \
+                 extends the table with it beyond {:.1}-{:.1} Hz\n",
+                self.frequency_range_hz.0, self.frequency_range_hz.1
+            )),
+            Tracking::Refused(why) => out.push_str(&format!(
+                "as a tracking response it cannot be used yet: {why}\n"
+            )),
+        }
+        out.push_str(&format!("wrote {}", self.table));
+        for p in &self.plots {
+            out.push_str(&format!("\nwrote {p}"));
+        }
+        out
+    }
+}
+
+/// Writes `<table stem>.svg` (Bode diagram: the table, and the fitted model with the
+/// extension `mil analyze` uses, from a tenth of its lowest to four times its highest
+/// frequency, the bandwidth marked) and `<table stem>-coherence.svg`.
+fn write_plots(
+    table: &FrfTable,
+    measured: Option<&MeasuredResponse>,
+    out: &Path,
+    input: &str,
+    output: &str,
+) -> Result<Vec<PathBuf>> {
+    let stem = out.with_extension("");
+    let bode_path = stem.with_extension("svg");
+    let coherence_path = PathBuf::from(format!("{}-coherence.svg", stem.display()));
+    let points = table.points();
+    let f: Vec<f64> = points.iter().map(|p| p.frequency_hz).collect();
+    let mut plot = BodePlot::new(
+        format!("{output} / {input}: measured frequency response"),
+        format!("{output} / {input} [dB]"),
+    );
+    plot.magnitude_scale = MagnitudeScale::Decibel;
+    plot.series.push(BodeSeries::new(
+        "measured",
+        f.clone(),
+        points.iter().map(|p| p.complex()).collect(),
+    ));
+    plot.magnitude_lines = vec![0.0, -3.0];
+    if let Some(m) = measured {
+        let (lo, hi) = table.frequency_range();
+        let grid: Vec<f64> = (0..=400)
+            .map(|i| 0.1 * lo * (40.0 * hi / lo).powf(f64::from(i) / 400.0))
+            .collect();
+        let mut extended = BodeSeries::new(
+            "as the analysis extends it",
+            grid.clone(),
+            grid.iter().map(|&x| m.response(x)).collect(),
+        );
+        extended.dashed = true;
+        plot.series.push(extended);
+        let mut model = BodeSeries::new(
+            format!("fitted model ({})", m.fit().describe()),
+            grid.clone(),
+            grid.iter().map(|&x| m.fit().response(x)).collect(),
+        );
+        model.dashed = true;
+        plot.series.push(model);
+        let (bandwidth, delay) = m.bandwidth();
+        plot.markers.push(Marker::new(
+            bandwidth,
+            format!("bandwidth {bandwidth:.1} Hz, {:.2} ms", delay * 1e3),
+        ));
+    }
+    bode_svg(&bode_path, &plot)?;
+    if table.has_coherence() {
+        let mut coherence = XyPlot::new(
+            format!("{output} / {input}: coherence of the kept points"),
+            "frequency [Hz]",
+            "coherence [-]",
+        );
+        coherence.log_x = true;
+        coherence.series.push(XySeries::new(
+            "coherence",
+            points
+                .iter()
+                .map(|p| (p.frequency_hz, p.coherence.unwrap_or(f64::NAN)))
+                .collect(),
+            SeriesStyle::Points,
+        ));
+        xy_svg(&coherence_path, &coherence)?;
+        return Ok(vec![bode_path, coherence_path]);
+    }
+    Ok(vec![bode_path])
 }
 
 /// Parses `LOW:HIGH` (Hz).

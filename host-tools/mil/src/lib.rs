@@ -15,8 +15,10 @@
 //! ([`filter_upload`]) calibrate and measure the board over XCP on CAN (`mil-xcp-master`),
 //! by the names of its A2L file; [`xcp`] holds what they share (port, CAN IDs, secret).
 
+pub mod actuator_test;
 pub mod analyze;
 pub mod check;
+pub mod cli;
 pub mod config;
 pub mod daq_record;
 pub mod design_filter;

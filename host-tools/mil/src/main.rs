@@ -146,6 +146,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Test the set-up's actuator on the simulated rig as a rig engineer tests the real one
+    /// before a MiL experiment: its rod blocked, a sine sweep or noise force command, the
+    /// load cell recorded; the record `mil identify` reads.
+    ActuatorTest(mil::actuator_test::Args),
     /// Identify an actuator's frequency response from test records (sine sweep and/or random
     /// noise; H1 estimate, Welch averaging, coherence) and write the table `mil analyze`
     /// reads (`[actuator] tracking = { table = "..." }`).
@@ -449,6 +453,15 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::ActuatorTest(args) => {
+            let summary = mil::actuator_test::run(&args)?;
+            if args.json {
+                mil::outln!("{}", serde_json::to_string(&summary)?)?;
+            } else {
+                mil::outln!("{}", summary.text())?;
+            }
+            Ok(())
+        }
         Command::Identify {
             data,
             input,
@@ -459,9 +472,6 @@ fn run(cli: Cli) -> Result<()> {
             out,
             json,
         } => {
-            if let Some(parent) = out.parent() {
-                std::fs::create_dir_all(parent)?;
-            }
             let (_, summary) = mil::identify::run_identify(&mil::identify::IdentifyOptions {
                 records: data,
                 input,
@@ -474,18 +484,7 @@ fn run(cli: Cli) -> Result<()> {
             if json {
                 outln!("{}", serde_json::to_string(&summary)?);
             } else {
-                outln!(
-                    "{} points, {:.2}-{:.1} Hz, {} segments of {} samples at {} Hz, lowest \
-                     coherence {:.3}\nwrote {}",
-                    summary.points,
-                    summary.frequency_range_hz.0,
-                    summary.frequency_range_hz.1,
-                    summary.segments,
-                    summary.segment_length,
-                    summary.sample_rate_hz,
-                    summary.min_coherence,
-                    summary.table
-                );
+                outln!("{}", summary.text());
             }
             Ok(())
         }

@@ -27,6 +27,7 @@
 pub const DEFAULT_INTERNAL_STEP_S: f64 = 100e-6;
 
 pub mod actuator;
+pub mod actuator_test;
 pub mod experiment;
 pub mod harness;
 pub mod link;

@@ -1,0 +1,124 @@
+//! What every `mil` subcommand shares on its way out: stdout that ends quietly on a closed
+//! pipe, the progress bar, and output files written whole or not at all.
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::Write;
+use std::path::Path;
+
+/// Writes to stdout; a closed pipe (`mil ... | head`) ends the program quietly with status 0
+/// where `print!` would panic; other write errors are returned.
+///
+/// # Errors
+/// A write error other than a closed pipe.
+pub fn print(args: std::fmt::Arguments<'_>) -> std::io::Result<()> {
+    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        return Err(e);
+    }
+    Ok(())
+}
+
+/// `println!` through [`print`], returning its error (`?`).
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::cli::print(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::print(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// A progress bar on stderr with `message`, `length` steps long, hidden with `--json` (or
+/// when stderr is not a terminal, as indicatif does).
+pub fn progress_bar(hidden: bool, length: u64, message: &'static str) -> ProgressBar {
+    if hidden {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(length).with_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(message);
+    bar
+}
+
+/// Writes `path` whole or not at all: `write` fills a temporary file beside it, which then
+/// replaces `path` (a rename), so an interrupted run (Ctrl-C, an error) never leaves a
+/// truncated file where a complete one is expected. The folder is created if missing.
+///
+/// # Errors
+/// The folder or the file cannot be written (the path named), or `write` fails.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> Result<()>,
+) -> Result<()> {
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    std::fs::create_dir_all(folder)
+        .with_context(|| format!("cannot create the folder {}", folder.display()))?;
+    let mut file = tempfile::NamedTempFile::new_in(folder)
+        .with_context(|| format!("cannot write in {}", folder.display()))?;
+    {
+        let mut w = std::io::BufWriter::new(file.as_file_mut());
+        write(&mut w)?;
+        w.flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    file.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// Checks before a long run that `folder` can take the run's files (created if missing),
+/// so that a bad `--out` fails at once, naming the folder, not after the run.
+///
+/// # Errors
+/// The folder cannot be created or written.
+pub fn check_output_folder(folder: &Path) -> Result<()> {
+    std::fs::create_dir_all(folder)
+        .with_context(|| format!("--out: cannot create the folder {}", folder.display()))?;
+    tempfile::NamedTempFile::new_in(folder)
+        .with_context(|| format!("--out: cannot write in {}", folder.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_write_leaves_the_previous_file_whole_and_no_debris() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sub/out.csv");
+        write_atomic(&path, |w| Ok(writeln!(w, "a,b\n1,2")?)).unwrap();
+        let err = write_atomic(&path, |w| {
+            writeln!(w, "a,b")?;
+            anyhow::bail!("interrupted")
+        });
+        assert!(err.is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "a,b\n1,2\n");
+        let files: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();
+        assert_eq!(files.len(), 1, "{files:?}");
+    }
+
+    #[test]
+    fn an_unwritable_output_folder_is_named_before_the_run() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("a-file");
+        std::fs::write(&file, "x").unwrap();
+        let err = check_output_folder(&file.join("out")).unwrap_err();
+        let text = format!("{err:#}");
+        assert!(
+            text.starts_with("--out: cannot create the folder"),
+            "{text}"
+        );
+        assert!(text.contains("a-file"), "{text}");
+    }
+}
