@@ -545,16 +545,14 @@ pub fn fit_numerator(
     let wr = TAU * structure.rolloff_hz;
     let den = structure.denominator_normalised();
     let n = structure.zeros + 1;
-    // Static gain constraint F(0) P(0) = 1 when P(0) is known.
-    let dc = match &system.actuators.tracking {
-        crate::response::ResponseSource::Model {
-            transfer_function, ..
-        } => {
-            let p0 = transfer_function.response_s(Complex64::new(0.0, 0.0));
-            (p0.is_finite() && p0.norm() > 1e-9).then(|| 1.0 / p0.re)
-        }
-        _ => None,
-    };
+    // Static gain constraint F(0) P(0) = 1 when P(0) is known (a model's, or a measured
+    // table's at its lowest frequency).
+    let dc = system
+        .actuators
+        .tracking
+        .static_gain()
+        .filter(|p0| p0.is_finite() && p0.abs() > 1e-9)
+        .map(|p0| 1.0 / p0);
     let first_free = usize::from(dc.is_some());
     let unknowns = n - first_free;
     let rows = 2 * grid.len();

@@ -9,7 +9,10 @@
 //! - between points (also across coherence gaps, where `mil identify` dropped points)
 //!   `c` is interpolated linearly in `log f`: the gap follows the model's shape, not a
 //!   straight line between its edges;
-//! - outside the band `c` keeps its edge value and fades to 0 over one octave: the response
+//! - below the band `c` keeps its value at the table's lowest frequency: the response there
+//!   is the model's shape on the measured level (the refusal rules below make the lowest
+//!   frequency at most a tenth of the bandwidth, where a tracking response is flat);
+//! - above the band `c` fades from its edge value to 0 over one octave: the response
 //!   continues without a step and becomes the model's.
 //!
 //! Off the imaginary axis (the stability contour runs at `σ = 2π · 1 mHz`) the model is
@@ -149,7 +152,7 @@ impl MeasuredResponse {
             edge.1 * (1.0 - octaves).max(0.0)
         };
         if x <= first.0 {
-            return fade(first);
+            return first.1;
         }
         if x >= last.0 {
             return fade(last);

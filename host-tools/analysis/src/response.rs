@@ -127,6 +127,20 @@ impl ResponseSource {
         })
     }
 
+    /// The static gain `P(0)` where it is known: a model's value at `s = 0`; a measured
+    /// table's real part at its lowest frequency (extended or not: below its band the
+    /// extension holds the table's level); none for a zero response.
+    pub fn static_gain(&self) -> Option<f64> {
+        match self {
+            Self::Model {
+                transfer_function, ..
+            } => Some(transfer_function.response_s(Complex64::new(0.0, 0.0)).re),
+            Self::Table(table) => table.points().first().map(|p| p.complex().re),
+            Self::Measured(m) => Some(m.response(0.0).re),
+            Self::Zero => None,
+        }
+    }
+
     /// The frequency range (Hz) over which the response is defined: a table's range, else all
     /// positive frequencies.
     pub fn frequency_range(&self) -> (f64, f64) {

@@ -28,6 +28,8 @@ pub enum FileKind {
     Filter,
     /// A measured or simulated record (CSV).
     Record,
+    /// A frequency-response table (CSV, `frequency_hz` first: `mil identify`'s).
+    ResponseTable,
 }
 
 impl FileKind {
@@ -38,6 +40,7 @@ impl FileKind {
             FileKind::Setup => "MiL set-up",
             FileKind::Filter => "filter file",
             FileKind::Record => "record",
+            FileKind::ResponseTable => "frequency-response table",
         }
     }
 }
@@ -51,13 +54,23 @@ pub fn kind_of(path: &Path) -> Result<FileKind> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("json") => return Ok(FileKind::Filter),
-        Some("csv") | Some("txt") | Some("tsv") => return Ok(FileKind::Record),
-        _ => {}
-    }
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let header = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .unwrap_or("");
+    match ext.as_deref() {
+        Some("json") => return Ok(FileKind::Filter),
+        Some("csv") | Some("txt") | Some("tsv") if header.starts_with("frequency_hz") => {
+            return Ok(FileKind::ResponseTable)
+        }
+        Some("csv") | Some("txt") | Some("tsv") => return Ok(FileKind::Record),
+        // Without a telling extension, a JSON object is a filter file.
+        _ if header.starts_with('{') => return Ok(FileKind::Filter),
+        _ => {}
+    }
     let table: toml::Table = toml::from_str(&text)
         .map_err(|e| anyhow!("{}: not TOML, JSON or CSV: {e}", path.display()))?;
     if table.contains_key("dof") {
@@ -134,6 +147,31 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
                 "filter file: {} active section(s) at {} Hz",
                 cascade.active().len(),
                 f.sample_rate_hz
+            )
+        }
+        FileKind::ResponseTable => {
+            let table = mil_identify::FrfTable::read_csv(path).map_err(|e| anyhow!("{e}"))?;
+            let (lo, hi) = table.frequency_range();
+            let tracking = match mil_analysis::measured::MeasuredResponse::new(
+                table.clone(),
+                &path.display().to_string(),
+            ) {
+                Ok(m) => {
+                    let (bandwidth, delay) = m.bandwidth();
+                    format!(
+                        "as a tracking response: bandwidth {bandwidth:.1} Hz, equivalent delay \
+                         {:.2} ms",
+                        delay * 1e3
+                    )
+                }
+                Err(mil_analysis::AnalysisError::Setup(why)) => {
+                    format!("not usable as a tracking response: {why}")
+                }
+                Err(e) => format!("not usable as a tracking response: {e}"),
+            };
+            format!(
+                "frequency-response table: {} points, {lo:.3}-{hi:.1} Hz; {tracking}",
+                table.points().len()
             )
         }
         FileKind::Record => {

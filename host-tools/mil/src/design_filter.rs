@@ -509,8 +509,11 @@ pub fn run_design_filter(
         .out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
-    std::fs::create_dir_all(&folder).with_context(|| format!("creating {}", folder.display()))?;
+        .map_or_else(PathBuf::new, Path::to_path_buf);
+    if !folder.as_os_str().is_empty() {
+        std::fs::create_dir_all(&folder)
+            .with_context(|| format!("creating {}", folder.display()))?;
+    }
     let mut file = FilterFile::new(&design.cascade, setup.sample_rate_hz);
     file.figures = Some(serde_json::to_value(&design.figures)?);
     file.write(&request.out)?;

@@ -19,6 +19,7 @@ pub mod actuator_test;
 pub mod analyze;
 pub mod check;
 pub mod cli;
+pub mod compare;
 pub mod config;
 pub mod daq_record;
 pub mod design_filter;

@@ -150,6 +150,10 @@ enum Command {
     /// before a MiL experiment: its rod blocked, a sine sweep or noise force command, the
     /// load cell recorded; the record `mil identify` reads.
     ActuatorTest(mil::actuator_test::Args),
+    /// Compare a MiL recording with the emulated system (`mil sim`'s `sim.csv`: every
+    /// `mil_*` column against its `emulated_*`) or with another run (`--against`): J1 delay,
+    /// J2 normalised RMS error, J3 normalised peak error, the responses to `--input`, plots.
+    Compare(mil::compare::Args),
     /// Identify an actuator's frequency response from test records (sine sweep and/or random
     /// noise; H1 estimate, Welch averaging, coherence) and write the table `mil analyze`
     /// reads (`[actuator] tracking = { table = "..." }`).
@@ -453,6 +457,15 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Compare(args) => {
+            let summary = mil::compare::run(&args)?;
+            if args.json {
+                mil::outln!("{}", serde_json::to_string(&summary)?)?;
+            } else {
+                mil::outln!("{}", summary.text())?;
+            }
+            Ok(())
+        }
         Command::ActuatorTest(args) => {
             let summary = mil::actuator_test::run(&args)?;
             if args.json {
@@ -513,6 +526,7 @@ fn run(cli: Cli) -> Result<()> {
             };
             bar.set_message("simulating the rig");
             let progress = |f: f64| bar.set_position((f * 1000.0) as u64);
+            let elf_given = elf.is_some();
             let (result, qemu) = match board {
                 SimBoard::Host => (mil::sim::simulate(&config, progress)?, None),
                 SimBoard::Qemu => {
@@ -546,9 +560,20 @@ fn run(cli: Cli) -> Result<()> {
             } else {
                 out!("{}", result.table());
                 if let Some(q) = &qemu {
+                    // The default image by its name only: where the build folder is differs
+                    // between machines.
+                    let image = if elf_given {
+                        q.elf.clone()
+                    } else {
+                        format!(
+                            "{} (the QEMU build; --elf to choose)",
+                            Path::new(&q.elf)
+                                .file_name()
+                                .map_or(q.elf.clone(), |n| n.to_string_lossy().to_string())
+                        )
+                    };
                     outln!(
-                        "firmware in QEMU: {} ({} parameter slots written over XCP)",
-                        q.elf,
+                        "firmware in QEMU: {image} ({} parameter slots written over XCP)",
                         q.slots_written
                     );
                     outln!(

@@ -111,7 +111,7 @@ fn every_shipped_file_is_recognised_and_valid() {
             .or_insert(0) += 1;
     }
     // Every kind is among them.
-    assert_eq!(kinds.len(), 4, "{kinds:?}");
+    assert_eq!(kinds.len(), 5, "{kinds:?}");
 }
 
 #[test]
