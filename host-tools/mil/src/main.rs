@@ -546,15 +546,48 @@ fn run(cli: Cli) -> Result<()> {
                     (r, Some(q))
                 }
             };
+            // The main job (the built-in example, no filter asked for) also runs with the
+            // paper's command filter: the problem and its answer side by side.
+            let paper = if setup.is_none() && filter.is_none() && board == SimBoard::Host {
+                let mut file = tempfile::NamedTempFile::new()?;
+                std::io::Write::write_all(&mut file, mil::setup::DEFAULT_FILTER.as_bytes())?;
+                let mut with = set_up(None, Some(file.path()))?.sim()?;
+                if let Some(d) = duration {
+                    with.run.duration_s = d;
+                }
+                bar.set_message("the same with the paper's command filter");
+                bar.set_position(0);
+                Some(mil::sim::simulate(&with, |f: f64| {
+                    bar.set_position((f * 1000.0) as u64)
+                })?)
+            } else {
+                None
+            };
             bar.finish_and_clear();
             std::fs::create_dir_all(&out)?;
             let csv = out.join("sim.csv");
             result.write_csv(&csv)?;
             let plots = result.write_plots(&out)?;
+            let paper_files = match &paper {
+                Some(p) => {
+                    let folder = out.join("with-filter");
+                    std::fs::create_dir_all(&folder)?;
+                    let csv = folder.join("sim.csv");
+                    p.write_csv(&csv)?;
+                    Some((csv, p.write_plots(&folder)?))
+                }
+                None => None,
+            };
             if json {
                 let mut value = serde_json::to_value(&result.summary)?;
                 if let (Some(q), Some(map)) = (&qemu, value.as_object_mut()) {
                     map.insert("qemu".into(), serde_json::to_value(q)?);
+                }
+                if let (Some(p), Some(map)) = (&paper, value.as_object_mut()) {
+                    map.insert(
+                        "with_paper_filter".into(),
+                        serde_json::to_value(&p.summary)?,
+                    );
                 }
                 outln!("{}", value);
             } else {
@@ -585,6 +618,20 @@ fn run(cli: Cli) -> Result<()> {
                 outln!("time histories: {}", csv.display());
                 for p in &plots {
                     outln!("plot:           {}", p.display());
+                }
+                if let (Some(p), Some((paper_csv, paper_plots))) = (&paper, &paper_files) {
+                    out!(
+                        "{}",
+                        result.side_by_side(
+                            &p.summary,
+                            "the paper's least-squares command filter \
+                             (host-tools/mil/examples/tyre-filter.json)"
+                        )
+                    );
+                    outln!("with the filter: {}", paper_csv.display());
+                    for p in paper_plots {
+                        outln!("plot:            {}", p.display());
+                    }
                 }
             }
             if let Some(t) = result.summary.fault_at_s {

@@ -56,6 +56,10 @@ use std::path::{Path, PathBuf};
 /// use it ([`SetUp::builtin`]).
 pub const DEFAULT_SETUP: &str = include_str!("../examples/tyre.toml");
 
+/// The paper's least-squares command filter for the built-in tyre example
+/// (`examples/tyre-filter.json`): the main job runs the example without and with it.
+pub const DEFAULT_FILTER: &str = include_str!("../examples/tyre-filter.json");
+
 /// The built-in tyre example's physical part, [`DEFAULT_SETUP`]'s `[physical] structure`.
 pub const DEFAULT_PHYSICAL: &str = include_str!("../examples/tyre-physical.toml");
 

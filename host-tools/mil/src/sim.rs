@@ -902,6 +902,47 @@ impl SimOutput {
         Ok(files)
     }
 
+    /// The main job's side-by-side: this run (without a command filter) and `with` (the same
+    /// run with `filter_name`), per channel the in-band J2 and J1 of force and position, and
+    /// one line on what the figures measure.
+    pub fn side_by_side(&self, with: &SimSummary, filter_name: &str) -> String {
+        let s = &self.summary;
+        let band = format!("{:.0}-{:.0} Hz", s.band_hz[0], s.band_hz[1]);
+        let mut out = format!(
+            "\nThe paper's problem and its answer: the same run with {filter_name}.\nLook at J2 \
+             within {band}, the MiL rig's RMS error over the real car's RMS in the band that \
+             matters (J1: the delay at the cross-correlation peak; J3: the peak error over the \
+             car's peak).\n{:<28} {:>22}   {:>22}\n{:<28} {:>10} {:>11}   {:>10} {:>11}\n",
+            "",
+            format!("J2 within {band} [%]"),
+            "J1 delay [ms]",
+            "",
+            "no filter",
+            "with filter",
+            "no filter",
+            "with filter"
+        );
+        let opt = |v: Option<f64>, digits: usize| {
+            v.map_or_else(|| "-".to_string(), |x| format!("{x:.digits$}"))
+        };
+        for (a, b) in s.channel.iter().zip(&with.channel) {
+            for (what, x, y) in [
+                ("force", &a.force_in_band, &b.force_in_band),
+                ("position", &a.position_in_band, &b.position_in_band),
+            ] {
+                out += &format!(
+                    "{:<28} {:>10} {:>11}   {:>10} {:>11}\n",
+                    format!("{} {what}", a.name),
+                    opt(x.nrms_error_pct, 1),
+                    opt(y.nrms_error_pct, 1),
+                    opt(x.delay_ms, 2),
+                    opt(y.delay_ms, 2)
+                );
+            }
+        }
+        out
+    }
+
     /// The summary as a human-readable table.
     pub fn table(&self) -> String {
         let s = &self.summary;

@@ -355,3 +355,62 @@ fn a_faulted_run_names_its_cause_and_fails() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The main job (`mil sim`, the built-in example, no filter asked for) shows the paper's
+/// problem and its answer: the same run with the paper's command filter, side by side, the
+/// in-band J2 and J1 of every wheel lower with the filter, its files beside the first run's;
+/// a set-up given by name runs alone.
+#[test]
+fn the_main_job_shows_the_run_without_and_with_the_papers_filter() {
+    let dir = tempfile::tempdir().unwrap();
+    let mil = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    let text = mil(&["sim", "--duration", "4"]);
+    assert!(text.contains("Look at J2 within 1-30 Hz"), "{text}");
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip_while(|l| !l.contains("no filter with filter"))
+        .skip(1)
+        .take_while(|l| l.starts_with("wheel"))
+        .map(|l| {
+            l.split_whitespace()
+                .rev()
+                .take(4)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 8, "{text}");
+    for r in &rows {
+        // Reversed: J1 with, J1 without, J2 with, J2 without.
+        assert!(r[2] < 0.5 * r[3] && r[0] < 0.5 * r[1], "{r:?} in {text}");
+    }
+    assert!(dir.path().join("out/sim/with-filter/sim.csv").is_file());
+    let json: serde_json::Value =
+        serde_json::from_str(&mil(&["sim", "--duration", "4", "--json"])).unwrap();
+    assert_eq!(json["with_paper_filter"]["filter_sections"], 2, "{json}");
+    assert_eq!(json["filter_sections"], 0);
+    let examples = examples();
+    let named = examples.join("tyre.toml");
+    let alone = mil(&[
+        "sim",
+        named.to_str().unwrap(),
+        "--duration",
+        "2",
+        "--out",
+        "named",
+    ]);
+    assert!(!alone.contains("with filter"), "{alone}");
+    assert!(!dir.path().join("named/with-filter").exists());
+}
