@@ -30,6 +30,8 @@ use std::f64::consts::TAU;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+mod common;
+
 const HELD_OUT: [u64; 2] = [907, 4441];
 
 /// The tyre example with its tracking response from `table` and the rate `fs`, in `dir`;
@@ -357,18 +359,7 @@ fn a_table_short_of_the_bandwidth_is_refused_with_the_band_it_needs() {
 #[test]
 fn the_commands_print_the_next_step_and_the_actuators_figures() {
     let dir = tempfile::tempdir().unwrap();
-    let mil = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-            .args(args)
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).to_string(),
-            String::from_utf8_lossy(&out.stderr).to_string(),
-        )
-    };
+    let mil = |args: &[&str]| common::mil_in(dir.path(), args);
     let (code, stdout, stderr) = mil(&["actuator-test", "--duration", "30"]);
     assert_eq!(code, Some(0), "{stderr}");
     assert!(stdout.contains("wrote out/actuator/sweep.csv"), "{stdout}");

@@ -6,18 +6,8 @@ use std::f64::consts::TAU;
 use std::io::Write;
 use std::path::Path;
 
-fn mil(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).to_string(),
-        String::from_utf8_lossy(&out.stderr).to_string(),
-    )
-}
+mod common;
+use common::mil_in as mil;
 
 /// A record at `fs`: `road_0`, `emulated_force_0` (a 3 Hz and a 7 Hz sine, the response
 /// to the road), `mil_force_0` = `scale` times it `delay` samples later.

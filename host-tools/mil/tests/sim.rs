@@ -6,6 +6,8 @@ use mil::setup::SetUp;
 use mil::sim::{simulate, SimOutput};
 use std::path::{Path, PathBuf};
 
+mod common;
+
 fn examples() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples")
 }
@@ -364,17 +366,9 @@ fn a_faulted_run_names_its_cause_and_fails() {
 fn the_main_job_shows_the_run_without_and_with_the_papers_filter() {
     let dir = tempfile::tempdir().unwrap();
     let mil = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
-            .args(args)
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).to_string()
+        let (code, stdout, stderr) = common::mil_in(dir.path(), args);
+        assert_eq!(code, Some(0), "{stderr}");
+        stdout
     };
     let text = mil(&["sim", "--duration", "4"]);
     assert!(text.contains("Look at J2 within 1-30 Hz"), "{text}");
