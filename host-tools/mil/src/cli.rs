@@ -46,6 +46,21 @@ pub fn progress_bar(hidden: bool, length: u64, message: &'static str) -> Progres
     bar
 }
 
+/// A spinner on stderr with `message` for work whose length is not known in advance
+/// (reading a large record), ticking by itself; hidden with `--json`.
+pub fn spinner(hidden: bool, message: &'static str) -> ProgressBar {
+    if hidden {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new_spinner().with_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.set_message(message);
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
+}
+
 /// Writes `path` whole or not at all: `write` fills a temporary file beside it, which then
 /// replaces `path` (a rename), so an interrupted run (Ctrl-C, an error) never leaves a
 /// truncated file where a complete one is expected. The folder is created if missing.

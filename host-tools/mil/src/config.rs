@@ -528,10 +528,12 @@ impl Config {
                 model_core::ParamError::Unstable(_) => "unstable",
                 model_core::ParamError::Inconsistent(_) => "inconsistent",
             };
+            // The set-up's key, not model-core's field name; the code is the one the board's
+            // status and XCP replies carry.
             anyhow::anyhow!(
-                "{}: {why} (the board refuses {:?})",
+                "{}: {why} (the board would refuse it with error kind {})",
                 set_up_key(e.field()),
-                e.field()
+                e.kind_code()
             )
         };
         match self.model.kind {
@@ -914,7 +916,9 @@ mod tests {
             DEFAULT_SETUP.replace("damping_n_s_per_m = 500.0", "damping_n_s_per_m = -1.0");
         assert_ne!(negative, DEFAULT_SETUP);
         let err = run(&negative).unwrap_err().to_string();
-        assert!(err.contains("TyreDamping"), "{err}");
+        // Named by the set-up's key, not model-core's field name.
+        assert!(err.contains("numerical.tyre.damping_n_s_per_m"), "{err}");
+        assert!(!err.contains("TyreDamping"), "{err}");
         let fast = DEFAULT_SETUP.replace("max_hz = 40.0", "max_hz = 3000.0");
         assert_ne!(fast, DEFAULT_SETUP);
         assert!(run(&fast).is_err());

@@ -363,6 +363,7 @@ fn run(cli: Cli) -> Result<()> {
             json,
         } => {
             let config = set_up(setup.as_deref(), filter.as_deref())?.run()?;
+            mil::cli::check_output_folder(&out)?;
             let bar = if json {
                 ProgressBar::hidden()
             } else {
@@ -485,6 +486,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             json,
         } => {
+            let bar = mil::cli::spinner(json, "reading the records and estimating the response");
             let (_, summary) = mil::identify::run_identify(&mil::identify::IdentifyOptions {
                 records: data,
                 input,
@@ -494,6 +496,7 @@ fn run(cli: Cli) -> Result<()> {
                 min_coherence,
                 out,
             })?;
+            bar.finish_and_clear();
             if json {
                 outln!("{}", serde_json::to_string(&summary)?);
             } else {
@@ -511,6 +514,7 @@ fn run(cli: Cli) -> Result<()> {
             duration,
         } => {
             let mut config = set_up(setup.as_deref(), filter.as_deref())?.sim()?;
+            mil::cli::check_output_folder(&out)?;
             if let Some(d) = duration {
                 config.run.duration_s = d;
             }

@@ -1,7 +1,7 @@
 //! One open-loop run of the real-time controller step over a road input.
 
 use crate::config::{Config, Validated};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use mil_rig::experiment::PreparedSubstructure;
 use model_core::{Controller, Mode, Model, ModelInput, PreparedParams, Status};
 use serde::Serialize;
@@ -198,44 +198,43 @@ impl RunOutput {
     /// model only), `demand_<ch>` (N), `mode`, `amplitude_limited`, `rate_limited` (bit
     /// masks).
     pub fn write_csv(&self, path: &Path) -> Result<()> {
-        let file = std::fs::File::create(path)
-            .with_context(|| format!("cannot create {}", path.display()))?;
-        let mut w = std::io::BufWriter::new(file);
-        let ch = self.summary.channels;
-        let mut header = vec!["time".to_string()];
-        header.extend((0..ch).map(|c| format!("road_{c}")));
-        if self.speed.is_some() {
-            header.push("speed".into());
-        }
-        header.extend((0..ch).map(|c| format!("demand_{c}")));
-        header.extend(["mode", "amplitude_limited", "rate_limited"].map(String::from));
-        writeln!(w, "{}", header.join(","))?;
-        for (k, (((t, z), d), s)) in self
-            .time
-            .iter()
-            .zip(&self.road)
-            .zip(&self.demand)
-            .zip(&self.status)
-            .enumerate()
-        {
-            write!(w, "{t:.6}")?;
-            for v in z {
-                write!(w, ",{v:.9e}")?;
+        // Whole or not at all: an interrupted run leaves no truncated file.
+        crate::cli::write_atomic(path, |w| {
+            let ch = self.summary.channels;
+            let mut header = vec!["time".to_string()];
+            header.extend((0..ch).map(|c| format!("road_{c}")));
+            if self.speed.is_some() {
+                header.push("speed".into());
             }
-            if let Some(v) = &self.speed {
-                write!(w, ",{:.6}", v[k])?;
+            header.extend((0..ch).map(|c| format!("demand_{c}")));
+            header.extend(["mode", "amplitude_limited", "rate_limited"].map(String::from));
+            writeln!(w, "{}", header.join(","))?;
+            for (k, (((t, z), d), s)) in self
+                .time
+                .iter()
+                .zip(&self.road)
+                .zip(&self.demand)
+                .zip(&self.status)
+                .enumerate()
+            {
+                write!(w, "{t:.6}")?;
+                for v in z {
+                    write!(w, ",{v:.9e}")?;
+                }
+                if let Some(v) = &self.speed {
+                    write!(w, ",{:.6}", v[k])?;
+                }
+                for v in d {
+                    write!(w, ",{v:.6e}")?;
+                }
+                writeln!(
+                    w,
+                    ",{},{},{}",
+                    s.mode as u8, s.amplitude_limited, s.rate_limited
+                )?;
             }
-            for v in d {
-                write!(w, ",{v:.6e}")?;
-            }
-            writeln!(
-                w,
-                ",{},{},{}",
-                s.mode as u8, s.amplitude_limited, s.rate_limited
-            )?;
-        }
-        w.flush()?;
-        Ok(())
+            Ok(())
+        })
     }
 
     /// The summary as a human-readable table.

@@ -752,51 +752,50 @@ impl SimOutput {
     /// # Errors
     /// I/O errors.
     pub fn write_csv(&self, path: &Path) -> Result<()> {
-        let file = std::fs::File::create(path)
-            .with_context(|| format!("cannot create {}", path.display()))?;
-        let mut w = std::io::BufWriter::new(file);
-        let h = &self.histories;
-        let ch = self.summary.channels;
-        let mut header = vec!["time".to_string()];
-        header.extend(self.road_names.iter().cloned());
-        for c in 0..ch {
-            header.extend(
-                [
-                    "demand",
-                    "mil_position",
-                    "mil_force",
-                    "emulated_position",
-                    "emulated_force",
-                ]
-                .map(|s| format!("{s}_{c}")),
-            );
-        }
-        header.extend(h.mil_dofs.iter().map(|(name, _)| format!("mil_dof_{name}")));
-        header.extend(["mode", "fault"].map(String::from));
-        writeln!(w, "{}", header.join(","))?;
-        for k in 0..h.len() {
-            write!(w, "{:.6}", h.time[k])?;
-            for r in &h.road {
-                write!(w, ",{:.9e}", r[k])?;
-            }
+        // Whole or not at all: an interrupted run leaves no truncated file.
+        crate::cli::write_atomic(path, |w| {
+            let h = &self.histories;
+            let ch = self.summary.channels;
+            let mut header = vec!["time".to_string()];
+            header.extend(self.road_names.iter().cloned());
             for c in 0..ch {
-                write!(
-                    w,
-                    ",{:.6e},{:.9e},{:.6e},{:.9e},{:.6e}",
-                    h.demand[c][k],
-                    h.mil_position[c][k],
-                    h.mil_force[c][k],
-                    h.emulated_position[c][k],
-                    h.emulated_force[c][k]
-                )?;
+                header.extend(
+                    [
+                        "demand",
+                        "mil_position",
+                        "mil_force",
+                        "emulated_position",
+                        "emulated_force",
+                    ]
+                    .map(|s| format!("{s}_{c}")),
+                );
             }
-            for (_, q) in &h.mil_dofs {
-                write!(w, ",{:.9e}", q[k])?;
+            header.extend(h.mil_dofs.iter().map(|(name, _)| format!("mil_dof_{name}")));
+            header.extend(["mode", "fault"].map(String::from));
+            writeln!(w, "{}", header.join(","))?;
+            for k in 0..h.len() {
+                write!(w, "{:.6}", h.time[k])?;
+                for r in &h.road {
+                    write!(w, ",{:.9e}", r[k])?;
+                }
+                for c in 0..ch {
+                    write!(
+                        w,
+                        ",{:.6e},{:.9e},{:.6e},{:.9e},{:.6e}",
+                        h.demand[c][k],
+                        h.mil_position[c][k],
+                        h.mil_force[c][k],
+                        h.emulated_position[c][k],
+                        h.emulated_force[c][k]
+                    )?;
+                }
+                for (_, q) in &h.mil_dofs {
+                    write!(w, ",{:.9e}", q[k])?;
+                }
+                writeln!(w, ",{},{}", h.status[k].mode as u8, h.status[k].fault)?;
             }
-            writeln!(w, ",{},{}", h.status[k].mode as u8, h.status[k].fault)?;
-        }
-        w.flush()?;
-        Ok(())
+            Ok(())
+        })
     }
 
     /// Writes the plots into `dir`: `forces.svg` and `positions.svg` (MiL against emulated,

@@ -408,3 +408,47 @@ fn the_main_job_shows_the_run_without_and_with_the_papers_filter() {
     assert!(!alone.contains("with filter"), "{alone}");
     assert!(!dir.path().join("named/with-filter").exists());
 }
+
+/// An output folder that cannot be made is named at once, before the run (it was found
+/// after it, with the OS error alone), in `mil sim` and `mil run` alike.
+#[test]
+fn an_unusable_out_folder_is_refused_before_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("a-file"), "x").unwrap();
+    for command in ["sim", "run"] {
+        let (code, stdout, stderr) = common::mil_in(dir.path(), &[command, "--out", "a-file/out"]);
+        assert_eq!(code, Some(1), "{command}: {stdout}");
+        assert!(
+            stderr.starts_with("Error: --out: cannot create the folder a-file/out"),
+            "{command}: {stderr}"
+        );
+        assert!(
+            stdout.is_empty(),
+            "{command}: ran before refusing: {stdout}"
+        );
+    }
+}
+
+/// A parameter the board would refuse is named by the set-up's key, without model-core's
+/// internal field name (it said "the board refuses DemandAmplitude").
+#[test]
+fn a_refused_parameter_is_named_by_its_set_up_key_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(examples().join("tyre.toml")).unwrap();
+    let from = "limits = { min = -1000.0, max = 12000.0";
+    assert!(text.contains(from));
+    let bad = text.replace(from, "limits = { min = 20000.0, max = 12000.0");
+    std::fs::write(dir.path().join("tyre.toml"), bad).unwrap();
+    std::fs::copy(
+        examples().join("tyre-physical.toml"),
+        dir.path().join("tyre-physical.toml"),
+    )
+    .unwrap();
+    let (code, _, stderr) = common::mil_in(dir.path(), &["sim", "tyre.toml"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        stderr.contains("controller.limits min / max: inconsistent"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("DemandAmplitude"), "{stderr}");
+}
