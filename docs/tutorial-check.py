@@ -2,7 +2,8 @@
 """Runs docs/tutorial.md exactly as written and checks that every command still prints what
 the tutorial shows, so the tutorial cannot rot.
 
-The tutorial's shell blocks (```sh) are run in order, each command line in one shell that
+The tutorial's shell blocks (```sh) are run in order (a ` #` and what follows it on a line is
+a comment and is not run), each command line in one shell that
 keeps its working folder between blocks (a `cd` carries over), starting in a fresh folder
 that sees the checkout's `host-tools` and `docs` (links), as the repository's root would. The `mil` on the
 PATH is the one this checkout builds (`cargo build --release -p mil`, run here first).

@@ -172,9 +172,14 @@ pub fn run(args: &Args) -> Result<Summary> {
         })?),
         None => None,
     };
-    let input_reference = match (&args.input, input) {
-        (Some(name), Some(i)) => Some(reference.index(name).unwrap_or(i)),
-        _ => None,
+    let input_reference = match &args.input {
+        Some(name) => Some(reference.index(name).with_context(|| {
+            format!(
+                "--input {name}: no such column in {reference_name} (columns: {})",
+                reference.names.join(",")
+            )
+        })?),
+        None => None,
     };
     // Two runs are comparable only on the same inputs: the road (and speed) columns, and
     // --input, must be equal where both records have them.
