@@ -408,6 +408,9 @@ fn run(cli: Cli) -> Result<()> {
             weights,
             json,
         } => {
+            if let Some(folder) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+                mil::cli::check_output_folder(folder)?;
+            }
             let paper = mil_analysis::design::FilterStructure::PAPER;
             let structure = mil_analysis::design::FilterStructure {
                 rolloff_hz: rolloff_hz.unwrap_or(paper.rolloff_hz),
@@ -449,6 +452,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             json,
         } => {
+            mil::cli::check_output_folder(&out)?;
             let result =
                 mil::analyze::run_analyze(&set_up(Some(&setup), filter.as_deref())?, &out)?;
             if json {

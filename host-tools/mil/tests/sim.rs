@@ -410,21 +410,31 @@ fn the_main_job_shows_the_run_without_and_with_the_papers_filter() {
 }
 
 /// An output folder that cannot be made is named at once, before the run (it was found
-/// after it, with the OS error alone), in `mil sim` and `mil run` alike.
+/// after it, with the OS error alone), in `mil sim`, `mil run`, `mil analyze` and `mil
+/// design-filter` alike.
 #[test]
 fn an_unusable_out_folder_is_refused_before_the_run() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("a-file"), "x").unwrap();
-    for command in ["sim", "run"] {
-        let (code, stdout, stderr) = common::mil_in(dir.path(), &[command, "--out", "a-file/out"]);
-        assert_eq!(code, Some(1), "{command}: {stdout}");
+    let tyre = examples().join("tyre.toml");
+    let tyre = tyre.to_str().unwrap();
+    for (command, out) in [
+        (vec!["sim"], "a-file/out"),
+        (vec!["run"], "a-file/out"),
+        (vec!["analyze", tyre], "a-file/out"),
+        (vec!["design-filter", tyre], "a-file/out/filter.json"),
+    ] {
+        let mut args = command.clone();
+        args.extend(["--out", out]);
+        let (code, stdout, stderr) = common::mil_in(dir.path(), &args);
+        assert_eq!(code, Some(1), "{command:?}: {stdout}");
         assert!(
             stderr.starts_with("Error: --out: cannot create the folder a-file/out"),
-            "{command}: {stderr}"
+            "{command:?}: {stderr}"
         );
         assert!(
             stdout.is_empty(),
-            "{command}: ran before refusing: {stdout}"
+            "{command:?}: ran before refusing: {stdout}"
         );
     }
 }
