@@ -49,6 +49,8 @@ pub struct MeasuredResponse {
     rational: Rational,
     /// `(ln f, c)` at the table's points.
     correction: Vec<(f64, Complex64)>,
+    /// The −3 dB bandwidth (Hz) and the phase lag there as a delay (s), found once.
+    bandwidth: (f64, f64),
 }
 
 impl MeasuredResponse {
@@ -105,13 +107,14 @@ impl MeasuredResponse {
         }
         let (num, den) = fit.rational();
         let rational = Rational::new(num, den)?;
-        let measured = Self {
+        let mut measured = Self {
             table,
             fit,
             rational,
             correction,
+            bandwidth: (f64::NAN, f64::NAN),
         };
-        let Some((bandwidth, _)) = measured.band_edge() else {
+        let Some(edge) = measured.band_edge() else {
             return Err(setup_error(format!(
                 "actuator tracking table {origin} ends at {hi:.1} Hz before its gain falls 3 dB \
                  below its low-frequency gain: it does not reach the actuator's bandwidth, and \
@@ -120,6 +123,8 @@ impl MeasuredResponse {
                 how(4.0 * hi)
             )));
         };
+        measured.bandwidth = edge;
+        let bandwidth = edge.0;
         if lo > 0.1 * bandwidth {
             return Err(setup_error(format!(
                 "actuator tracking table {origin} starts at {lo:.2} Hz, above a tenth of the \
@@ -130,11 +135,6 @@ impl MeasuredResponse {
             )));
         }
         Ok(measured)
-    }
-
-    /// The table.
-    pub fn table(&self) -> &FrfTable {
-        &self.table
     }
 
     /// The fitted model.
@@ -180,7 +180,7 @@ impl MeasuredResponse {
     /// there as a delay (s): the figures the engineer judges the actuator by, from the
     /// measurement rather than the model.
     pub fn bandwidth(&self) -> (f64, f64) {
-        self.band_edge().unwrap_or((f64::NAN, f64::NAN))
+        self.bandwidth
     }
 
     /// Where the response first falls 3 dB below its value at the table's lowest
@@ -222,11 +222,58 @@ impl MeasuredResponse {
             "measured table, {} points, {lo:.2}-{hi:.1} Hz: bandwidth {:.1} Hz, equivalent \
              delay {:.2} ms; extended by its fitted model ({}; {:.2} dB / {:.1} deg RMS)",
             self.table.points().len(),
-            self.bandwidth().0,
-            self.bandwidth().1 * 1e3,
+            self.bandwidth.0,
+            self.bandwidth.1 * 1e3,
             self.fit.describe(),
             self.fit.rms_db,
             self.fit.rms_deg
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mil_identify::FrfPoint;
+
+    /// A second-order tracking response with delay (ζ 0.5, 60 Hz, 0.8 ms), tabled to 150 Hz:
+    /// the bandwidth and the lag there are the exact response's, the table is reproduced at
+    /// its points, and beyond it the response is the model's.
+    #[test]
+    fn the_bandwidth_and_delay_are_the_responses_and_the_table_is_kept() {
+        let (wn, zeta, tau) = (TAU * 60.0, 0.5, 0.8e-3);
+        let h = |f: f64| {
+            let s = Complex64::new(0.0, TAU * f);
+            wn * wn / (s * s + 2.0 * zeta * wn * s + wn * wn) * (-s * tau).exp()
+        };
+        let points = (1..=300)
+            .map(|i| {
+                let f = 0.5 * f64::from(i);
+                let v = h(f);
+                FrfPoint {
+                    frequency_hz: f,
+                    magnitude: v.norm(),
+                    phase_deg: v.arg().to_degrees(),
+                    coherence: Some(0.99),
+                }
+            })
+            .collect();
+        let table = FrfTable::new(points).unwrap();
+        let m = MeasuredResponse::new(table.clone(), "test").unwrap();
+        // −3 dB of ζ = 0.5 is at ω_n √(1 − 2ζ² + √(4ζ⁴ − 4ζ² + 2)) = 1.2720 ω_n.
+        let (bw, delay) = m.bandwidth();
+        let expected = 60.0
+            * (1.0 - 2.0 * zeta * zeta + (4.0 * zeta.powi(4) - 4.0 * zeta * zeta + 2.0f64).sqrt())
+                .sqrt();
+        assert!((bw / expected - 1.0).abs() < 1e-3, "{bw} vs {expected}");
+        let w = TAU * expected;
+        let lag = (2.0 * zeta * wn * w).atan2(wn * wn - w * w) + w * tau;
+        assert!((delay - lag / w).abs() < 2e-5, "{delay} vs {}", lag / w);
+        for p in table.points().iter().step_by(37) {
+            assert!((m.response(p.frequency_hz) / p.complex() - 1.0).norm() < 1e-9);
+        }
+        for f in [300.0, 1000.0, 5000.0] {
+            assert!((m.response(f) / h(f) - 1.0).norm() < 1e-3, "{f} Hz");
+        }
     }
 }

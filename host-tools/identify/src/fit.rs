@@ -1,6 +1,6 @@
 //! A low-order model with delay fitted to a measured tracking response ([`LowOrderFit`]):
-//! what the engineer judges the actuator by (bandwidth, equivalent delay), and what extends
-//! a table beyond the band it was measured over.
+//! what extends a table beyond the band it was measured over (`mil_analysis::measured`,
+//! which also reads the actuator's bandwidth and equivalent delay from the table).
 //!
 //! ## Models
 //! The tracking response of a force- or position-controlled servo-hydraulic actuator is a
@@ -23,18 +23,14 @@
 //! inverse of the H1 estimate's relative variance. On a table evenly spaced in frequency
 //! (as `mil identify` writes it) this weighs the upper octaves most: the fit is made for
 //! the response around and above the bandwidth, where a table is extended, rather than for
-//! its low-frequency detail, which the table itself carries. The minimisation is Nelder–Mead in logarithmic parameters (positive by
-//! construction), restarted until it no longer improves. The order is chosen by the Bayesian
-//! information criterion `N ln(cost) + k ln N` (`k` parameters, `N` points): a higher order
-//! must earn its parameters.
+//! its low-frequency detail, which the table itself carries. The minimisation is
+//! Nelder–Mead in logarithmic parameters (positive by construction), restarted until it no
+//! longer improves. The order is chosen by the Bayesian information criterion
+//! `N ln(cost) + k ln N` (`k` parameters, `N` points): a higher order must earn its
+//! parameters.
 //!
-//! ## Figures
-//! - Bandwidth: the lowest frequency where the model's gain falls 3 dB below its static
-//!   gain `K`.
-//! - Equivalent delay: the model's phase lag at the bandwidth expressed as a delay,
-//!   `−φ(f_bw) / (2π f_bw)`: the delay a signal at the edge of the actuator's band sees.
-//! - Fit error: the RMS and the worst magnitude (dB) and phase (°) differences between the
-//!   model and the table's points.
+//! The fit error reported is the RMS magnitude (dB) and phase (°) difference between the
+//! model and the table's points.
 
 use crate::table::FrfTable;
 use mil_numerics::optimise::nelder_mead;
@@ -59,18 +55,10 @@ pub struct LowOrderFit {
     pub zero_frequency_hz: Option<f64>,
     /// Pure delay `τ` (s).
     pub delay_s: f64,
-    /// −3 dB bandwidth (Hz); none if the gain does not fall 3 dB below `K` (below 1 MHz).
-    pub bandwidth_hz: Option<f64>,
-    /// Phase lag at the bandwidth as a delay (s); at the table's top if none.
-    pub equivalent_delay_s: f64,
     /// RMS magnitude difference over the table's points (dB).
     pub rms_db: f64,
     /// RMS phase difference over the table's points (degrees).
     pub rms_deg: f64,
-    /// Largest magnitude difference (dB).
-    pub worst_db: f64,
-    /// Largest phase difference (degrees).
-    pub worst_deg: f64,
 }
 
 /// Largest coherence used in the weights (a perfect point would otherwise take all).
@@ -231,20 +219,9 @@ impl LowOrderFit {
             corner_frequency_hz: first.map(|w1| w1 / TAU),
             zero_frequency_hz: zero.map(|wz| wz / TAU),
             delay_s,
-            bandwidth_hz: None,
-            equivalent_delay_s: f64::NAN,
             rms_db: 0.0,
             rms_deg: 0.0,
-            worst_db: 0.0,
-            worst_deg: 0.0,
         };
-        fit.bandwidth_hz = fit.bandwidth();
-        // The phase lag at the bandwidth as a delay (at the top of the table if the model
-        // does not roll off).
-        let at = fit
-            .bandwidth_hz
-            .unwrap_or_else(|| table.frequency_range().1);
-        fit.equivalent_delay_s = -fit.log_response(at).im / (TAU * at);
         let points = table.points();
         let (mut sum_db, mut sum_deg) = (0.0, 0.0);
         for p in points {
@@ -253,8 +230,6 @@ impl LowOrderFit {
             let (db, deg) = (d.re * 20.0 / std::f64::consts::LN_10, d.im.to_degrees());
             sum_db += db * db;
             sum_deg += deg * deg;
-            fit.worst_db = fit.worst_db.max(db.abs());
-            fit.worst_deg = fit.worst_deg.max(deg.abs());
         }
         fit.rms_db = (sum_db / points.len() as f64).sqrt();
         fit.rms_deg = (sum_deg / points.len() as f64).sqrt();
@@ -317,31 +292,6 @@ impl LowOrderFit {
         (num, den)
     }
 
-    /// The −3 dB frequency (Hz), by a log-spaced search then bisection.
-    fn bandwidth(&self) -> Option<f64> {
-        let below = |f: f64| self.log_response(f).re - self.gain.ln() < -0.5 * 2f64.ln();
-        let mut lo = 1e-3;
-        let mut hi = None;
-        while lo < 1e6 {
-            let next = lo * 1.05;
-            if below(next) {
-                hi = Some(next);
-                break;
-            }
-            lo = next;
-        }
-        let mut hi = hi?;
-        for _ in 0..60 {
-            let mid = (lo * hi).sqrt();
-            if below(mid) {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
-        }
-        Some(hi)
-    }
-
     /// One line: the model and its figures.
     pub fn describe(&self) -> String {
         let mut out = format!("order {}", self.order);
@@ -399,10 +349,7 @@ mod tests {
                 "{fit:?}"
             );
             assert!((fit.delay_s - 0.8e-3).abs() < 2e-5, "{fit:?}");
-            assert!(fit.worst_db < 0.01 && fit.worst_deg < 0.1, "{fit:?}");
-            // −3 dB of ζ = 0.5 is at ω_n √(1 − 2ζ² + √(4ζ⁴ − 4ζ² + 2)) = 1.272 ω_n.
-            let bw = fit.bandwidth_hz.unwrap();
-            assert!((bw / 60.0 - 1.272).abs() < 2e-3, "{bw}");
+            assert!(fit.rms_db < 0.01 && fit.rms_deg < 0.1, "{fit:?}");
             let (num, den) = fit.rational();
             let s = Complex64::new(0.0, TAU * 40.0);
             let r = num[0] / (den[0] * s * s + den[1] * s + den[2]) * (-s * fit.delay_s).exp();
@@ -419,12 +366,7 @@ mod tests {
             (fit.corner_frequency_hz.unwrap() - 20.0).abs() < 0.05,
             "{fit:?}"
         );
-        // The lag at the bandwidth (45° at the corner) as a delay.
-        assert!((fit.bandwidth_hz.unwrap() - 20.0).abs() < 0.05, "{fit:?}");
-        assert!(
-            (fit.equivalent_delay_s - 0.125 / 20.0).abs() < 1e-5,
-            "{fit:?}"
-        );
+        assert!(fit.rms_db < 0.01 && fit.rms_deg < 0.1, "{fit:?}");
         let (num, den) = fit.rational();
         assert_eq!(den.len(), 2);
         let s = Complex64::new(0.0, TAU * 7.0);
@@ -442,12 +384,8 @@ mod tests {
             corner_frequency_hz: Some(80.0),
             zero_frequency_hz: Some(20.0),
             delay_s: 0.0,
-            bandwidth_hz: None,
-            equivalent_delay_s: 0.0,
             rms_db: 0.0,
             rms_deg: 0.0,
-            worst_db: 0.0,
-            worst_deg: 0.0,
         };
         let (num, den) = fit.rational();
         let s = Complex64::new(0.0, TAU * 33.0);

@@ -4,11 +4,11 @@
 //! same record.
 
 use crate::setup::SetUp;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use mil_identify::{try_band_limited_noise, try_log_sine_sweep};
 use mil_params::ServoHydraulicActuator;
 use mil_rig::actuator::ForceActuator;
-use mil_rig::actuator_test::BlockedRodTest;
+use mil_rig::actuator_test::{ActuatorTestError, BlockedRodTest};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -179,7 +179,11 @@ pub fn run(args: &Args) -> Result<Summary> {
     let bar = crate::cli::progress_bar(args.json, 1000, "testing the actuator");
     let force = test
         .run(&command, |f| bar.set_position((f * 1000.0) as u64))
-        .context("[sensors] force")?;
+        .map_err(|e| match e {
+            // The only sensor is the load cell: name its set-up key.
+            ActuatorTestError::Sensor(_) => anyhow!("[sensors] force: {e}"),
+            e => anyhow!("{e}"),
+        })?;
     bar.finish_and_clear();
     crate::cli::write_atomic(&out, |w| {
         writeln!(w, "{}", COLUMNS.join(","))?;

@@ -21,17 +21,6 @@ pub fn print(args: std::fmt::Arguments<'_>) -> std::io::Result<()> {
     Ok(())
 }
 
-/// `println!` through [`print`], returning its error (`?`).
-#[macro_export]
-macro_rules! outln {
-    () => {
-        $crate::cli::print(format_args!("\n"))
-    };
-    ($($arg:tt)*) => {
-        $crate::cli::print(format_args!("{}\n", format_args!($($arg)*)))
-    };
-}
-
 /// A progress bar on stderr with `message`, `length` steps long, hidden with `--json` (or
 /// when stderr is not a terminal, as indicatif does).
 pub fn progress_bar(hidden: bool, length: u64, message: &'static str) -> ProgressBar {

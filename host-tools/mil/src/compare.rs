@@ -11,6 +11,7 @@
 //! - `--input COLUMN`: the responses of both sides to that column (H1, Welch), their
 //!   magnitude and phase differences over `--band`, and a Bode diagram.
 
+use crate::sim::{coherent_bins, Deviation};
 use anyhow::{bail, Context, Result};
 use mil_identify::{h1_estimate, Record, WelchOptions};
 use mil_numerics::record::{read, Table};
@@ -61,7 +62,7 @@ pub struct Pair {
     pub figures: Comparison,
     /// Response comparison to `--input`: worst magnitude (dB) and phase (degrees)
     /// difference over the band, among points of coherence ≥ 0.9 on both sides.
-    pub response: Option<(f64, f64)>,
+    pub response: Option<Deviation>,
 }
 
 /// What `mil compare` found.
@@ -108,14 +109,20 @@ pub fn run(args: &Args) -> Result<Summary> {
     let band = crate::identify::parse_band(&args.band)?;
     crate::cli::check_output_folder(&args.out)?;
     let (record, fs) = load(&args.record)?;
-    let (reference, reference_name, pairs): (Table, String, Vec<Columns>) = match &args.against {
-        Some(other) => {
-            let (table, fs_other) = load(other)?;
+    // The reference: the other run, or the record itself (its emulated_* columns).
+    let other = match &args.against {
+        Some(path) => Some(load(path)?),
+        None => None,
+    };
+    let reference: &Table = other.as_ref().map_or(&record, |(table, _)| table);
+    let (reference_name, pairs): (String, Vec<Columns>) = match (&args.against, &other) {
+        (Some(path), Some((table, fs_other))) => {
+            let fs_other = *fs_other;
             if (fs_other - fs).abs() > 1e-6 * fs {
                 bail!(
                     "{} is sampled at {fs_other:.6} Hz, {} at {fs:.6} Hz: compare runs at one \
                          rate",
-                    other.display(),
+                    path.display(),
                     args.record.display()
                 );
             }
@@ -126,9 +133,9 @@ pub fn run(args: &Args) -> Result<Summary> {
                 .filter(|(_, n)| !SKIPPED.contains(&n.as_str()))
                 .filter_map(|(i, n)| table.index(n).map(|j| (i, j)))
                 .collect();
-            (table, other.display().to_string(), pairs)
+            (path.display().to_string(), pairs)
         }
-        None => {
+        _ => {
             let pairs = record
                 .names
                 .iter()
@@ -138,7 +145,7 @@ pub fn run(args: &Args) -> Result<Summary> {
                     record.index(&format!("emulated_{rest}")).map(|j| (i, j))
                 })
                 .collect();
-            (record.clone(), "emulated".to_string(), pairs)
+            ("emulated".to_string(), pairs)
         }
     };
     if pairs.is_empty() {
@@ -240,21 +247,11 @@ pub fn run(args: &Args) -> Result<Summary> {
                     fs,
                     &welch,
                 )?;
-                let mut worst: Option<(f64, f64)> = None;
-                for k in 0..mine.frequency_hz.len() {
-                    let f = mine.frequency_hz[k];
-                    if f < band.0
-                        || f > band.1
-                        || mine.coherence[k] < 0.9
-                        || theirs.coherence[k] < 0.9
-                    {
-                        continue;
-                    }
-                    let r = mine.response[k] / theirs.response[k];
-                    let (db, deg) = (20.0 * r.norm().log10(), r.arg().to_degrees());
-                    let w = worst.get_or_insert((0.0, 0.0));
-                    *w = (w.0.max(db.abs()), w.1.max(deg.abs()));
-                }
+                let bins = coherent_bins(&mine, &theirs, band);
+                let at = |e: &mil_identify::FrfEstimate| -> Vec<_> {
+                    bins.iter().map(|&k| e.response[k]).collect()
+                };
+                let worst = Deviation::worst(&at(&mine), &at(&theirs));
                 let keep =
                     |e: &mil_identify::FrfEstimate| -> (Vec<f64>, Vec<num_complex::Complex64>) {
                         e.frequency_hz
@@ -396,8 +393,8 @@ impl Summary {
             if with_response {
                 out.push_str(&format!(
                     " {:>9} {:>9}",
-                    opt(p.response.map(|r| r.0), 2),
-                    opt(p.response.map(|r| r.1), 1)
+                    opt(p.response.map(|r| r.db), 2),
+                    opt(p.response.map(|r| r.deg), 1)
                 ));
             }
             out.push('\n');

@@ -7,18 +7,12 @@ use mil::setup::SetUp;
 use mil::xcp::BoardArgs;
 use std::path::{Path, PathBuf};
 
-/// `print!` to stdout that ends the program quietly (status 0) when stdout is a closed pipe
-/// (`mil sim | head`), where `print!` would panic; other write errors are returned.
+/// `print!` through [`mil::cli::print`] (a closed stdout ends the program quietly), its
+/// error returned with `?`.
 macro_rules! out {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
-            if e.kind() == std::io::ErrorKind::BrokenPipe {
-                std::process::exit(0);
-            }
-            return Err(e.into());
-        }
-    }};
+    ($($arg:tt)*) => {
+        mil::cli::print(format_args!($($arg)*))?
+    };
 }
 
 /// `println!` as [`out!`].
@@ -364,15 +358,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let config = set_up(setup.as_deref(), filter.as_deref())?.run()?;
             mil::cli::check_output_folder(&out)?;
-            let bar = if json {
-                ProgressBar::hidden()
-            } else {
-                ProgressBar::new(1000).with_style(
-                    ProgressStyle::with_template("{msg} [{bar:40}] {percent:>3}% {elapsed}")
-                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-                )
-            };
-            bar.set_message("running controller");
+            let bar = mil::cli::progress_bar(json, 1000, "running controller");
             let result = mil::run(&config, |f| bar.set_position((f * 1000.0) as u64))?;
             bar.finish_and_clear();
             std::fs::create_dir_all(&out)?;
@@ -465,18 +451,18 @@ fn run(cli: Cli) -> Result<()> {
         Command::Compare(args) => {
             let summary = mil::compare::run(&args)?;
             if args.json {
-                mil::outln!("{}", serde_json::to_string(&summary)?)?;
+                outln!("{}", serde_json::to_string(&summary)?);
             } else {
-                mil::outln!("{}", summary.text())?;
+                outln!("{}", summary.text());
             }
             Ok(())
         }
         Command::ActuatorTest(args) => {
             let summary = mil::actuator_test::run(&args)?;
             if args.json {
-                mil::outln!("{}", serde_json::to_string(&summary)?)?;
+                outln!("{}", serde_json::to_string(&summary)?);
             } else {
-                mil::outln!("{}", summary.text())?;
+                outln!("{}", summary.text());
             }
             Ok(())
         }
@@ -522,17 +508,7 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(d) = duration {
                 config.run.duration_s = d;
             }
-            let bar = if json {
-                ProgressBar::hidden()
-            } else {
-                ProgressBar::new(1000).with_style(
-                    ProgressStyle::with_template(
-                        "{msg} [{bar:40}] {percent:>3}% {elapsed} (eta {eta})",
-                    )
-                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
-                )
-            };
-            bar.set_message("simulating the rig");
+            let bar = mil::cli::progress_bar(json, 1000, "simulating the rig");
             let progress = |f: f64| bar.set_position((f * 1000.0) as u64);
             let elf_given = elf.is_some();
             let (result, qemu) = match board {
@@ -576,13 +552,15 @@ fn run(cli: Cli) -> Result<()> {
             let csv = out.join("sim.csv");
             result.write_csv(&csv)?;
             let plots = result.write_plots(&out)?;
-            let paper_files = match &paper {
+            // The filtered run with its files: (run, CSV, plots).
+            let paper = match paper {
                 Some(p) => {
                     let folder = out.join("with-filter");
                     std::fs::create_dir_all(&folder)?;
                     let csv = folder.join("sim.csv");
                     p.write_csv(&csv)?;
-                    Some((csv, p.write_plots(&folder)?))
+                    let plots = p.write_plots(&folder)?;
+                    Some((p, csv, plots))
                 }
                 None => None,
             };
@@ -591,7 +569,7 @@ fn run(cli: Cli) -> Result<()> {
                 if let (Some(q), Some(map)) = (&qemu, value.as_object_mut()) {
                     map.insert("qemu".into(), serde_json::to_value(q)?);
                 }
-                if let (Some(p), Some(map)) = (&paper, value.as_object_mut()) {
+                if let (Some((p, _, _)), Some(map)) = (&paper, value.as_object_mut()) {
                     map.insert(
                         "with_paper_filter".into(),
                         serde_json::to_value(&p.summary)?,
@@ -627,7 +605,7 @@ fn run(cli: Cli) -> Result<()> {
                 for p in &plots {
                     outln!("plot:           {}", p.display());
                 }
-                if let (Some(p), Some((paper_csv, paper_plots))) = (&paper, &paper_files) {
+                if let Some((p, paper_csv, paper_plots)) = &paper {
                     out!(
                         "{}",
                         result.side_by_side(

@@ -64,6 +64,36 @@ pub struct Deviation {
     pub deg: f64,
 }
 
+impl Deviation {
+    /// The worst magnitude (dB) and phase (degrees) deviation of `a` from `b`, bin by bin;
+    /// none without bins.
+    pub fn worst(a: &[Complex64], b: &[Complex64]) -> Option<Self> {
+        let mut d: Option<Self> = None;
+        for (x, y) in a.iter().zip(b) {
+            let r = x / y;
+            let (db, deg) = ((20.0 * r.norm().log10()).abs(), r.arg().to_degrees().abs());
+            let w = d.get_or_insert(Self { db: 0.0, deg: 0.0 });
+            w.db = w.db.max(db);
+            w.deg = w.deg.max(deg);
+        }
+        d
+    }
+}
+
+/// The bins of two estimates on one frequency grid that lie in `band` (Hz) and where both
+/// are finite and coherent (coherence of at least 0.9): where two responses are compared.
+pub fn coherent_bins(a: &FrfEstimate, b: &FrfEstimate, band: (f64, f64)) -> Vec<usize> {
+    (0..a.frequency_hz.len().min(b.frequency_hz.len()))
+        .filter(|&k| {
+            (band.0..=band.1).contains(&a.frequency_hz[k])
+                && a.coherence[k] >= 0.9
+                && b.coherence[k] >= 0.9
+                && a.response[k].is_finite()
+                && b.response[k].is_finite()
+        })
+        .collect()
+}
+
 /// The estimated response of the run and its comparisons.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct ResponseSummary {
@@ -660,16 +690,7 @@ fn response(
         Ok(h1_estimate(&[Record { input, output: out }], fs, &options)?)
     };
     let (mil, emu) = (estimate(mil_out)?, estimate(emu_out)?);
-    let keep: Vec<usize> = (0..mil.frequency_hz.len())
-        .filter(|&k| {
-            let f = mil.frequency_hz[k];
-            (cmp.f_min_hz..=cmp.f_max_hz).contains(&f)
-                && mil.coherence[k] >= 0.9
-                && emu.coherence[k] >= 0.9
-                && mil.response[k].is_finite()
-                && emu.response[k].is_finite()
-        })
-        .collect();
+    let keep = coherent_bins(&mil, &emu, (cmp.f_min_hz, cmp.f_max_hz));
     let mut curves = ResponseCurves {
         name: name.into(),
         unit: unit.into(),
@@ -678,17 +699,7 @@ fn response(
         emulated: keep.iter().map(|&k| emu.response[k]).collect(),
         predicted: None,
     };
-    let deviation = |a: &[Complex64], b: &[Complex64]| -> Option<Deviation> {
-        let mut d: Option<Deviation> = None;
-        for (x, y) in a.iter().zip(b) {
-            let r = x / y;
-            let (db, deg) = ((20.0 * r.norm().log10()).abs(), r.arg().to_degrees().abs());
-            let w = d.get_or_insert(Deviation { db: 0.0, deg: 0.0 });
-            w.db = w.db.max(db);
-            w.deg = w.deg.max(deg);
-        }
-        d
-    };
+    let deviation = Deviation::worst;
     let mut summary = ResponseSummary {
         name: name.into(),
         band_hz: [cmp.f_min_hz, cmp.f_max_hz],

@@ -61,8 +61,8 @@ fn a_delayed_scaled_copy_gives_its_delay_and_error() {
     );
     // The responses to the road differ by the scale (0.83 dB) and the delay.
     let (db, deg) = (
-        pair["response"][0].as_f64().unwrap(),
-        pair["response"][1].as_f64().unwrap(),
+        pair["response"]["db"].as_f64().unwrap(),
+        pair["response"]["deg"].as_f64().unwrap(),
     );
     assert!((db - 20.0 * 1.1f64.log10()).abs() < 0.05, "{db} dB");
     assert!((deg - 360.0 * 7.0 * 0.005).abs() < 1.0, "{deg} deg");
