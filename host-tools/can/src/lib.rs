@@ -11,6 +11,8 @@
 //!   Built, not tested: vcan is not available on the machines the tests run on.
 //! - [`Qemu`]: starts the QEMU build of the firmware on QEMU's `netduinoplus2` with its
 //!   USART1 on a free TCP port, and returns the connected, opened [`SlcanTcp`].
+//! - [`XcpRelay`]: the board's XCP port served at a chosen address for XCP tools while a
+//!   harness drives the board, and the moment a DAQ measurement starts.
 //! - [`RemoteBoard`]: `mil_rig::harness::Board<1>` over any transport, with a host mirror of
 //!   the firmware's controller that checks every demand frame bit for bit.
 //! - [`footprint`]: flash and static RAM of a firmware ELF from its section headers.
@@ -29,6 +31,7 @@ mod board;
 mod configure;
 pub mod footprint;
 mod qemu;
+mod relay;
 mod slcan;
 #[cfg(feature = "socketcan")]
 mod socket;
@@ -39,6 +42,7 @@ pub use configure::{configure, Configured, XcpLink};
 pub use qemu::{
     find_firmware_elf, listening_ports, Qemu, QemuOptions, QemuOutput, FIRMWARE_BUILD_COMMAND,
 };
+pub use relay::XcpRelay;
 pub use slcan::{LineCounts, SlcanTcp};
 #[cfg(feature = "socketcan")]
 pub use socket::SocketCan;

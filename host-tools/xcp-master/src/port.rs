@@ -96,6 +96,10 @@ impl std::fmt::Debug for Port {
     }
 }
 
+/// How long [`PortSpec::open`] tries a TCP port that refuses the connection (a board in QEMU
+/// still starting).
+pub const CONNECT_WAIT: Duration = Duration::from_secs(10);
+
 impl PortSpec {
     /// Opens the port; `timeout` bounds the TCP connection and the SLCAN handshake.
     ///
@@ -110,7 +114,10 @@ impl PortSpec {
                     .map_err(|e| named(e, addr))?
                     .next()
                     .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{addr}: no address")))?;
-                let mut t = SlcanTcp::connect(target, timeout).map_err(|e| named(e, addr))?;
+                // A port not open yet (QEMU or `mil sim --xcp` starting) is tried again for
+                // up to CONNECT_WAIT.
+                let mut t = SlcanTcp::connect(target, timeout.max(CONNECT_WAIT))
+                    .map_err(|e| named(e, addr))?;
                 t.open(timeout)
                     .map_err(|e| named(e, &format!("{addr} (SLCAN open)")))?;
                 Ok(Port::Tcp(t))
