@@ -210,7 +210,13 @@ pub(crate) fn prepare(config: &Config) -> Result<(Validated, Option<Prediction>)
 /// An invalid configuration, rig or analysis set-up.
 pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput> {
     simulate_with(config, progress, |experiment, progress| {
-        Ok(experiment::run(experiment, progress)?)
+        // What the firmware runs (its run-time controller, configured as the set-up
+        // configures the board), on the host.
+        let dt = (1.0 / experiment.sample_rate_hz) as f32;
+        let mut board =
+            model_core::BoardController::with_params(&experiment.setting.board_params(), dt)
+                .map_err(|e| anyhow!("the board's parameters: {e:?}"))?;
+        Ok(experiment::run_on(experiment, &mut board, progress)?)
     })
 }
 
@@ -222,10 +228,26 @@ pub struct QemuSummary {
     /// Demand frames compared with the host mirror of the firmware's controller.
     pub demand_frames: usize,
     /// Demand frames that differ from the mirror's (any bit of demand or flags): 0 when the
-    /// image does what the host code does.
+    /// image does what the host code does, configured as the set-up says.
     pub mismatches: usize,
-    /// Parameter slots written over XCP to configure the firmware for the set-up.
+    /// Parameter slots written over XCP by `mil sim` to configure the firmware for the
+    /// set-up (0 when the board's XCP port was served: the engineer's tools configured it).
     pub slots_written: usize,
+    /// Where the board's XCP port was served ([`ServeXcp`]), if it was.
+    pub xcp_served_at: Option<String>,
+    /// XCP clients (tool runs) served there.
+    pub xcp_clients: usize,
+}
+
+/// The board's XCP port served for the engineer's own XCP tools (`mil param set`, `mil
+/// filter upload`, `mil daq record`), instead of `mil sim` configuring the board itself: the
+/// rig holds still until a DAQ measurement starts on the board, then runs the set-up's road.
+#[derive(Clone, Copy, Debug)]
+pub struct ServeXcp {
+    /// Where the tools connect (`--port tcp:HOST:PORT`).
+    pub listen: std::net::SocketAddr,
+    /// How long to wait for the measurement.
+    pub wait: std::time::Duration,
 }
 
 /// The board's settings for `config`: its sample rate (a whole number of Hz), the other
@@ -285,20 +307,58 @@ pub(crate) fn board_bus_budget(config: &Config) -> Result<BusBudget> {
     Ok(bus_budget(&params, &settings))
 }
 
-/// As [`simulate`], with the firmware image `elf` in QEMU (its QEMU build) in place of the
-/// host's controller: the firmware is configured over XCP with the set-up's board
-/// parameters and sample rate (refused with the bus load figure where the rate needs more
-/// than the bus budget), then driven sample for sample by the same rig; every demand frame
-/// is compared with the host mirror of the firmware's controller.
+/// The board's calibration page (f32 words, slot order) for the set-up `config`: its board
+/// parameters at its sample rate, the other settings at the build's defaults.
 ///
 /// # Errors
-/// As [`simulate`]; QEMU or the firmware not answering; the firmware refusing the set.
+/// An invalid set-up, a sample rate the board cannot run, or a configuration over the
+/// board's bus budget (the board refuses it).
+pub fn board_page(config: &Config) -> Result<[f32; mil_firmware::calibration::SLOTS]> {
+    let settings = board_settings(config)?;
+    let (validated, _) = prepare(config)?;
+    let params = setting(config, validated)?.board_params();
+    check_budget(&params, &settings)?;
+    Ok(mil_firmware::calibration::page_values(&params, &settings))
+}
+
+/// `params` within the board's bus budget at `settings`' rate.
+fn check_budget(
+    params: &model_core::BoardParams,
+    settings: &mil_firmware::calibration::Settings,
+) -> Result<()> {
+    if let BusBudget::Refused { load, max_rate_hz } = bus_budget(params, settings) {
+        bail!(
+            "the board refuses this configuration at {} Hz: {:.1} % of a 1 Mbit/s bus \
+             (budget 60 %); it runs at up to {max_rate_hz:.0} Hz",
+            settings.sample_rate_hz,
+            100.0 * load
+        );
+    }
+    Ok(())
+}
+
+/// As [`simulate`], with the firmware image `elf` in QEMU (its QEMU build) in place of the
+/// host's controller, driven sample for sample by the same rig; every demand frame is
+/// compared with the host mirror of the firmware's controller configured as the set-up says.
+///
+/// The firmware is configured over XCP with the set-up's board parameters and sample rate
+/// (refused with the bus load figure where the rate needs more than the bus budget), or,
+/// with `serve`, by the engineer's XCP tools through the board's XCP port served at
+/// `serve.listen` (`ready` is called with the address once it is open): the run starts when
+/// a DAQ measurement starts on the board, so the recording begins with the run; the mirror
+/// then shows whether the board was configured as the set-up says.
+///
+/// # Errors
+/// As [`simulate`]; QEMU or the firmware not answering; the firmware refusing the set; no
+/// DAQ measurement within `serve.wait`.
 pub fn simulate_on_qemu(
     config: &Config,
     elf: &std::path::Path,
+    serve: Option<ServeXcp>,
+    ready: impl FnOnce(std::net::SocketAddr),
     progress: impl FnMut(f64),
 ) -> Result<(SimOutput, QemuSummary)> {
-    use mil_can::{configure, Qemu, QemuOptions, RemoteBoard};
+    use mil_can::{configure, Qemu, QemuOptions, RemoteBoard, XcpRelay};
     use mil_firmware::calibration::{page_values, reference_words};
     let image = std::fs::read(elf).with_context(|| format!("cannot read {}", elf.display()))?;
     let working = mil_a2l::symbols(&image)
@@ -324,36 +384,69 @@ pub fn simulate_on_qemu(
         demand_frames: 0,
         mismatches: 0,
         slots_written: 0,
+        xcp_served_at: None,
+        xcp_clients: 0,
     };
+    let mut ready = Some(ready);
     let output = simulate_with(config, progress, |experiment, progress| {
         let params = experiment.setting.board_params();
-        if let BusBudget::Refused { load, max_rate_hz } = bus_budget(&params, &settings) {
-            bail!(
-                "the board refuses this configuration at {} Hz: {:.1} % of a 1 Mbit/s bus \
-                 (budget 60 %); it runs at up to {max_rate_hz:.0} Hz",
-                settings.sample_rate_hz,
-                100.0 * load
-            );
-        }
+        check_budget(&params, &settings)?;
         let target = page_values(&params, &settings).map(f32::to_bits);
-        let (qemu, link) = Qemu::spawn(elf, &QemuOptions::default())
-            .with_context(|| format!("QEMU with {}", elf.display()))?;
+        let options = QemuOptions {
+            xcp_port: serve.is_some(),
+            ..QemuOptions::default()
+        };
+        let (qemu, link) =
+            Qemu::spawn(elf, &options).with_context(|| format!("QEMU with {}", elf.display()))?;
         let mut board = RemoteBoard::new(link).map_err(|e| anyhow!(e))?;
-        let done = configure(
-            board.transport_mut(),
-            working,
-            &secret,
-            &reference_words(),
-            &target,
-        )
-        .map_err(|e| anyhow!("configuring the firmware over XCP: {e}"))?;
-        board
-            .replay(&reference_words(), &done.writes)
-            .map_err(|e| anyhow!(e))?;
+        let relay = match (serve, qemu.xcp_port()) {
+            (Some(serve), Some(port)) => {
+                let board_port = std::net::SocketAddr::from((std::net::Ipv4Addr::LOCALHOST, port));
+                let ids = (
+                    mil_firmware::config::XCP_COMMAND_ID,
+                    mil_firmware::config::XCP_RESPONSE_ID,
+                );
+                let relay = XcpRelay::start(serve.listen, board_port, ids)?;
+                summary.xcp_served_at = Some(relay.local_addr().to_string());
+                if let Some(ready) = ready.take() {
+                    ready(relay.local_addr());
+                }
+                if !relay.wait_for_daq_start(serve.wait) {
+                    bail!(
+                        "no DAQ measurement started on the board within {:.0} s (`mil daq record \
+                         --port tcp:{}` starts the run)",
+                        serve.wait.as_secs_f64(),
+                        relay.local_addr()
+                    );
+                }
+                // The mirror as the set-up configures the board: a board configured otherwise
+                // shows as mismatching demand frames.
+                board
+                    .set_mirror(&params, settings.dt())
+                    .map_err(|e| anyhow!(e))?;
+                Some(relay)
+            }
+            _ => {
+                let done = configure(
+                    board.transport_mut(),
+                    working,
+                    &secret,
+                    &reference_words(),
+                    &target,
+                )
+                .map_err(|e| anyhow!("configuring the firmware over XCP: {e}"))?;
+                board
+                    .replay(&reference_words(), &done.writes)
+                    .map_err(|e| anyhow!(e))?;
+                summary.slots_written = done.writes.len();
+                None
+            }
+        };
         let outcome = experiment::run_on(experiment, &mut board, progress)?;
         summary.demand_frames = board.samples().len();
         summary.mismatches = board.mismatches();
-        summary.slots_written = done.writes.len();
+        summary.xcp_clients = relay.as_ref().map_or(0, XcpRelay::clients);
+        drop(relay);
         let mut link = board.into_transport();
         link.close().context("closing the SLCAN channel")?;
         let out = qemu
@@ -409,6 +502,14 @@ fn simulate_with(
         sample_rate_hz: fs,
         internal_step_s: step,
         inputs,
+        // The road and the speed as the board receives them: in its measurement frames.
+        board_view: experiment::BoardView {
+            road: road_on_can,
+            speed: speed_on_can,
+            demand: demand_on_can,
+            position: position_on_can,
+            force: force_on_can,
+        },
     };
     let started = std::time::Instant::now();
     let Outcome {
@@ -547,6 +648,73 @@ fn settle_samples(config: &Config, samples: usize) -> usize {
 }
 
 /// `[sample][channel]` rows to per-channel columns.
+/// Position and road (m) as the board's Measurement frame carries them (its DBC resolution,
+/// 1 µm); a value the frame cannot carry is left as it is (the board would refuse it).
+fn measurement_on_can(position_m: f64, road_m: f64) -> Option<(f64, f64)> {
+    let m = mil_frames::Measurement {
+        channel: 0,
+        position_m: position_m as f32,
+        road_m: road_m as f32,
+        counter: 0,
+    };
+    let frame = mil_frames::encode_measurement(&mil_can::LAYOUT, &m).ok()?;
+    match mil_frames::decode(&mil_can::LAYOUT, &frame) {
+        Ok(mil_frames::Message::Measurement(m)) => {
+            Some((f64::from(m.position_m), f64::from(m.road_m)))
+        }
+        _ => None,
+    }
+}
+
+/// Force (N) and speed (m/s) as the board's MeasurementAux frame carries them (0.1 N,
+/// 0.01 m/s).
+fn measurement_aux_on_can(force_n: f64, speed: f64) -> Option<(f64, f64)> {
+    let m = mil_frames::MeasurementAux {
+        channel: 0,
+        force_n: force_n as f32,
+        speed_m_s: speed as f32,
+    };
+    let frame = mil_frames::encode_measurement_aux(&mil_can::LAYOUT, &m).ok()?;
+    match mil_frames::decode(&mil_can::LAYOUT, &frame) {
+        Ok(mil_frames::Message::MeasurementAux(m)) => {
+            Some((f64::from(m.force_n), f64::from(m.speed_m_s)))
+        }
+        _ => None,
+    }
+}
+
+fn road_on_can(road_m: f64) -> f64 {
+    measurement_on_can(0.0, road_m).map_or(road_m, |(_, r)| r)
+}
+
+fn position_on_can(position_m: f64) -> f64 {
+    measurement_on_can(position_m, 0.0).map_or(position_m, |(p, _)| p)
+}
+
+fn speed_on_can(speed: f64) -> f64 {
+    measurement_aux_on_can(0.0, speed).map_or(speed, |(_, v)| v)
+}
+
+fn force_on_can(force_n: f64) -> f64 {
+    measurement_aux_on_can(force_n, 0.0).map_or(force_n, |(f, _)| f)
+}
+
+/// A demand (N) as the board's Demand frame carries it (0.1 N).
+fn demand_on_can(demand_n: f64) -> f64 {
+    let d = mil_frames::Demand {
+        channel: 0,
+        demand_n: demand_n as f32,
+        counter: 0,
+        flags: mil_frames::DemandFlags::default(),
+    };
+    match mil_frames::encode_demand(&mil_can::LAYOUT, &d)
+        .map(|f| mil_frames::decode(&mil_can::LAYOUT, &f))
+    {
+        Ok(Ok(mil_frames::Message::Demand(d))) => f64::from(d.demand_n),
+        _ => demand_n,
+    }
+}
+
 fn columns(rows: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> {
     (0..channels)
         .map(|c| {

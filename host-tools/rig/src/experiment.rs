@@ -165,6 +165,75 @@ pub struct Experiment {
     pub internal_step_s: f64,
     /// Per input ([`Setting::input_names`]) its samples, all equally long.
     pub inputs: Vec<Vec<f64>>,
+    /// The road and the speed as the board receives them.
+    pub board_view: BoardView,
+}
+
+/// How the board receives the road, the speed and the measurements and sends its demand:
+/// e.g. as its CAN frames carry them (1 µm, 0.01 m/s, 0.1 N). Applied to what the board's controller is given, never to what the
+/// specimens run on (a quantised road would step their velocities).
+#[derive(Clone, Copy, Debug)]
+pub struct BoardView {
+    /// A road displacement (m) as the board receives it.
+    pub road: fn(f64) -> f64,
+    /// The speed (m/s) as the board receives it.
+    pub speed: fn(f64) -> f64,
+    /// The host controller's demand (N) as the board sends it (a board's own demand is
+    /// what it sent).
+    pub demand: fn(f64) -> f64,
+    /// A measured position (m) as the board receives it (after the position link).
+    pub position: fn(f64) -> f64,
+    /// A measured force (N) as the board receives it (after the force link).
+    pub force: fn(f64) -> f64,
+}
+
+impl Default for BoardView {
+    /// As they are.
+    fn default() -> Self {
+        fn same(x: f64) -> f64 {
+            x
+        }
+        Self {
+            road: same,
+            speed: same,
+            demand: same,
+            position: same,
+            force: same,
+        }
+    }
+}
+
+impl BoardView {
+    /// `input`, given the inputs as the board receives them (`speed`: the index of the speed
+    /// among the inputs, if there is one; the others are roads).
+    fn wrap<const CH: usize>(
+        self,
+        speed: Option<usize>,
+        input: impl Fn(&[f64; CH], &[f64; CH], &[f64], usize) -> model_core::ModelInput<CH>,
+    ) -> impl Fn(&[f64; CH], &[f64; CH], &[f64], usize) -> model_core::ModelInput<CH> {
+        move |position, force, inputs, k| {
+            let view = |(i, &x): (usize, &f64)| {
+                if Some(i) == speed {
+                    (self.speed)(x)
+                } else {
+                    (self.road)(x)
+                }
+            };
+            let position = position.map(self.position);
+            let force = force.map(self.force);
+            // The inputs on the stack where they fit (every setting has at most 4).
+            let mut buffer = [0.0; 8];
+            if let Some(seen) = buffer.get_mut(..inputs.len()) {
+                for (s, x) in seen.iter_mut().zip(inputs.iter().enumerate().map(view)) {
+                    *s = x;
+                }
+                input(&position, &force, seen, k)
+            } else {
+                let seen: Vec<f64> = inputs.iter().enumerate().map(view).collect();
+                input(&position, &force, &seen, k)
+            }
+        }
+    }
 }
 
 /// What an experiment yields.
@@ -218,31 +287,38 @@ pub fn run_on<B: AnyBoard>(
     drive(experiment, Some(board), progress)
 }
 
-/// The board the harness drives: the caller's, or the host's own controller.
-enum Driven<'a, B, C> {
+/// The board the harness drives: the caller's, or the host's own controller; its demands as
+/// `BoardView::demand` has them (a board's own are already so).
+struct Driven<'a, B, C> {
+    board: Which<'a, B, C>,
+    demand: fn(f64) -> f64,
+}
+
+enum Which<'a, B, C> {
     Remote(&'a mut B),
     Host(C),
 }
 
 impl<B: Board<CH>, C: Board<CH>, const CH: usize> Board<CH> for Driven<'_, B, C> {
     fn start(&mut self) -> Result<(), String> {
-        match self {
-            Self::Remote(b) => b.start(),
-            Self::Host(c) => c.start(),
+        match &mut self.board {
+            Which::Remote(b) => b.start(),
+            Which::Host(c) => c.start(),
         }
     }
 
     fn step(&mut self, input: &model_core::ModelInput<CH>) -> Result<[f32; CH], String> {
-        match self {
-            Self::Remote(b) => b.step(input),
-            Self::Host(c) => c.step(input),
-        }
+        let demand = match &mut self.board {
+            Which::Remote(b) => b.step(input)?,
+            Which::Host(c) => c.step(input)?,
+        };
+        Ok(demand.map(|x| (self.demand)(f64::from(x)) as f32))
     }
 
     fn status(&self) -> model_core::Status {
-        match self {
-            Self::Remote(b) => b.status(),
-            Self::Host(c) => c.status(),
+        match &self.board {
+            Which::Remote(b) => b.status(),
+            Which::Host(c) => c.status(),
         }
     }
 }
@@ -276,6 +352,7 @@ fn drive<B: AnyBoard>(
         sample_rate_hz: fs,
         internal_step_s: step,
         inputs,
+        board_view,
     } = experiment;
     let expected = setting.input_names().len();
     if matches!(setting, Setting::HalfCar { .. }) && inputs.len() != expected {
@@ -307,6 +384,7 @@ fn drive<B: AnyBoard>(
                 inputs,
                 &initial,
                 substructure_input(std::array::from_fn(|c| c)),
+                (*board_view, None),
                 progress,
             )
         }
@@ -335,6 +413,7 @@ fn drive<B: AnyBoard>(
                 inputs,
                 &aero_static_demand(&params, start),
                 aero_input_varying_speed(2),
+                (*board_view, Some(2)),
                 progress,
             )
         }
@@ -352,6 +431,7 @@ fn drive<B: AnyBoard>(
                 fs: *fs,
                 step: *step,
                 inputs,
+                board_view: *board_view,
             };
             match board {
                 PreparedSubstructure::One(p) => structure(p, rig, progress),
@@ -373,6 +453,7 @@ struct StructureRig<'a, B> {
     fs: f64,
     step: f64,
     inputs: &'a [Vec<f64>],
+    board_view: BoardView,
 }
 
 /// A structure on `CH` actuators with model-core's substructure model on the board.
@@ -400,11 +481,13 @@ fn structure<B: Board<CH>, const CH: usize>(
         rig.inputs,
         &[0.0; CH],
         substructure_input(model_roads),
+        (rig.board_view, None),
         progress,
     )
 }
 
-/// Starts model-core's controller with `board` and runs it against `parts`.
+/// Starts model-core's controller with `board` and runs it against `parts`, the board seeing
+/// the inputs as `view` says (`speed`: the speed's index among them).
 #[allow(clippy::too_many_arguments)]
 fn on_board<M: model_core::Model<CH>, B: Board<CH>, const CH: usize>(
     board: &PreparedParams<M, CH>,
@@ -415,19 +498,24 @@ fn on_board<M: model_core::Model<CH>, B: Board<CH>, const CH: usize>(
     inputs: &[Vec<f64>],
     initial_demand: &[f64; CH],
     input: impl Fn(&[f64; CH], &[f64; CH], &[f64], usize) -> model_core::ModelInput<CH>,
+    (view, speed): (BoardView, Option<usize>),
     progress: impl FnMut(f64),
 ) -> Result<Outcome, ExperimentError>
 where
     PreparedParams<M, CH>: Clone,
 {
+    let input = view.wrap(speed, input);
     let filter_sections = board
         .params()
         .filter
         .first()
         .map_or(0, |f| f.active().len());
-    let mut driven = match remote {
-        Some(remote) => Driven::Remote(remote),
-        None => Driven::Host(Controller::new(board.clone())),
+    let mut driven = Driven {
+        board: match remote {
+            Some(remote) => Which::Remote(remote),
+            None => Which::Host(Controller::new(board.clone())),
+        },
+        demand: view.demand,
     };
     let (histories, links) = harness::run(
         &mut driven,
