@@ -6,8 +6,11 @@
 //!   `sim.csv`, or a recording with the emulated system's response beside it).
 //! - `--against OTHER`: every column the two records share (but `time`, `mode`, `fault`),
 //!   the record against OTHER (e.g. the board in QEMU against the host's controller, a rig
-//!   recording against a `mil sim` run of the same road). Same sample rate; the shorter
-//!   length is compared.
+//!   recording against a `mil sim` run of the same road). A `mil daq record` recording's
+//!   board signals `position`, `road`, `demand` (channel 0) are compared with a run's
+//!   `mil_position_0`, `road_0`, `demand_0`. Same sample rate, same inputs (the road
+//!   columns equal to 1 % RMS: a board recording holds the road as quantised on CAN); the
+//!   shorter length is compared.
 //! - `--input COLUMN`: the responses of both sides to that column (H1, Welch), their
 //!   magnitude and phase differences over `--band`, and a Bode diagram.
 
@@ -101,6 +104,46 @@ type Columns = (usize, usize);
 /// Columns never compared.
 const SKIPPED: [&str; 3] = ["time", "mode", "fault"];
 
+/// The board's own signals (A2L measurements, as `mil daq record` names its columns) and the
+/// `mil sim` columns of the same quantity: the board measures channel 0.
+const BOARD_SIGNALS: [(&str, &str); 3] = [
+    ("position", "mil_position_0"),
+    ("road", "road_0"),
+    ("demand", "demand_0"),
+];
+
+/// The column of `table` holding the quantity `name` names: `name` itself, or its
+/// counterpart between a board recording and a `mil sim` run ([`BOARD_SIGNALS`]).
+fn column_for(table: &Table, name: &str) -> Option<usize> {
+    table.index(name).or_else(|| {
+        BOARD_SIGNALS.iter().find_map(|&(board, sim)| {
+            if name == board {
+                table.index(sim)
+            } else if name == sim {
+                table.index(board)
+            } else {
+                None
+            }
+        })
+    })
+}
+
+/// Two records' input columns are the same input when they differ by less than this
+/// fraction of the reference's RMS (RMS of the difference): a board recording holds the
+/// road as it came over CAN (quantised), a `mil sim` run as it was generated.
+const SAME_INPUT: f64 = 0.01;
+
+/// `a` and `b` are the same input within [`SAME_INPUT`].
+fn same_input(a: &[f64], b: &[f64]) -> bool {
+    let rms = |x: &mut dyn Iterator<Item = f64>, n: usize| {
+        (x.map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt()
+    };
+    let n = a.len().min(b.len());
+    let diff = rms(&mut a.iter().zip(b).map(|(x, y)| x - y), n);
+    let scale = rms(&mut b.iter().copied(), n);
+    diff <= SAME_INPUT * scale || a[..n] == b[..n]
+}
+
 /// Runs the comparison and writes the plots.
 ///
 /// # Errors
@@ -108,6 +151,15 @@ const SKIPPED: [&str; 3] = ["time", "mode", "fault"];
 pub fn run(args: &Args) -> Result<Summary> {
     let band = crate::identify::parse_band(&args.band)?;
     crate::cli::check_output_folder(&args.out)?;
+    if let Some(other) = &args.against {
+        let same = |p: &Path| std::fs::canonicalize(p).ok();
+        if same(other).is_some() && same(other) == same(&args.record) {
+            bail!(
+                "{} is compared with itself: give the reference run with --against",
+                args.record.display()
+            );
+        }
+    }
     let (record, fs) = load(&args.record)?;
     // The reference: the other run, or the record itself (its emulated_* columns).
     let other = match &args.against {
@@ -131,7 +183,7 @@ pub fn run(args: &Args) -> Result<Summary> {
                 .iter()
                 .enumerate()
                 .filter(|(_, n)| !SKIPPED.contains(&n.as_str()))
-                .filter_map(|(i, n)| table.index(n).map(|j| (i, j)))
+                .filter_map(|(i, n)| column_for(table, n).map(|j| (i, j)))
                 .collect();
             (path.display().to_string(), pairs)
         }
@@ -180,7 +232,7 @@ pub fn run(args: &Args) -> Result<Summary> {
         None => None,
     };
     let input_reference = match &args.input {
-        Some(name) => Some(reference.index(name).with_context(|| {
+        Some(name) => Some(column_for(reference, name).with_context(|| {
             format!(
                 "--input {name}: no such column in {reference_name} (columns: {})",
                 reference.names.join(",")
@@ -195,7 +247,7 @@ pub fn run(args: &Args) -> Result<Summary> {
             let name = &record.names[i];
             let is_input =
                 name.starts_with("road") || name == "speed" || Some(name) == args.input.as_ref();
-            if is_input && record.columns[i][..n] != reference.columns[j][..n] {
+            if is_input && !same_input(&record.columns[i][..n], &reference.columns[j][..n]) {
                 bail!(
                     "{} and {reference_name} were run on different inputs (column `{name}` \
                      differs): compare runs of the same road and length (a generated road \
@@ -216,12 +268,17 @@ pub fn run(args: &Args) -> Result<Summary> {
         .map(|&(i, _)| record.names[i].clone())
         .collect();
     if pairs.is_empty() {
-        bail!(
-            "{} and {} are equal in every shared column ({})",
-            args.record.display(),
-            reference_name,
-            identical.join(",")
-        );
+        // Two runs equal sample for sample: the finding itself (e.g. the board in QEMU and
+        // the host's controller on the same road).
+        return Ok(Summary {
+            record: args.record.display().to_string(),
+            reference: reference_name,
+            sample_rate_hz: fs,
+            duration_s: (n - skip) as f64 / fs,
+            pairs: Vec::new(),
+            identical,
+            plots: Vec::new(),
+        });
     }
     let welch = WelchOptions::for_record(n - skip);
     let mut out = Vec::new();
@@ -356,10 +413,22 @@ impl Summary {
     /// The summary as a table.
     pub fn text(&self) -> String {
         let mut out = format!(
-            "{} against {}: {:.2} s at {} Hz\nJ1 delay at the cross-correlation peak (ms, > 0: \
-             the record lags), J2 normalised RMS error (%), J3 normalised peak error (%)\n",
+            "{} against {}: {:.2} s at {} Hz\n",
             self.record, self.reference, self.duration_s, self.sample_rate_hz
         );
+        if !self.pairs.is_empty() {
+            out.push_str(
+                "J1 delay at the cross-correlation peak (ms, > 0: the record lags), J2 \
+                 normalised RMS error (%), J3 normalised peak error (%)\n",
+            );
+        }
+        if self.pairs.is_empty() {
+            out.push_str(&format!(
+                "equal in every shared column, sample for sample: {}",
+                self.identical.join(", ")
+            ));
+            return out;
+        }
         out.push_str(&format!(
             "{:<24} {:<24} {:>9} {:>9} {:>9} {:>12}",
             "column", "reference", "J1 ms", "J2 %", "J3 %", "RMS error"

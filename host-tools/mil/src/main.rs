@@ -76,6 +76,16 @@ enum Command {
         /// steps a few hundred samples a second).
         #[arg(long)]
         duration: Option<f64>,
+        /// With `--board qemu`: serve the board's XCP port at this address (e.g.
+        /// 127.0.0.1:5555) for your own XCP tools (`mil param set --setup`, `mil filter
+        /// upload`, `mil daq record`, one at a time, `--port tcp:ADDRESS`) instead of
+        /// configuring the board itself; the rig holds still until a DAQ measurement starts
+        /// on the board, then runs the road, the recording beginning with the run.
+        #[arg(long)]
+        xcp: Option<std::net::SocketAddr>,
+        /// With --xcp: how long to wait for the measurement (s).
+        #[arg(long, default_value_t = 600.0, requires = "xcp")]
+        wait: f64,
     },
     /// Run the real-time controller step over a road input, open-loop on a rigid rig (the
     /// hubs or body held still). Without SETUP the built-in tyre example runs.
@@ -209,9 +219,11 @@ enum Command {
     /// INCA or pyxcp) with the addresses of the firmware ELF FILE (built with symbols, as
     /// the release profile does).
     A2l {
-        /// The linked firmware (e.g. target/thumbv7em-none-eabihf/release/mil-firmware).
+        /// The linked firmware; default: the image under the build folder
+        /// (target/thumbv7em-none-eabihf/release/mil-firmware, the one `mil sim --board qemu`
+        /// runs).
         #[arg(long)]
-        elf: PathBuf,
+        elf: Option<PathBuf>,
         /// The A2L file to write.
         #[arg(long, default_value = "out/mil.a2l")]
         out: PathBuf,
@@ -265,9 +277,15 @@ enum ParamCommand {
     /// sent; contiguous parameters go to the board as one change it validates as a whole,
     /// the others one after another; prints old → new as read back.
     Set {
-        /// NAME=VALUE pairs (SI units as in the A2L).
-        #[arg(required = true)]
+        /// NAME=VALUE pairs (SI units as in the A2L); with --setup, they replace the set-up's
+        /// values.
+        #[arg(required_unless_present = "setup")]
         assignments: Vec<String>,
+        /// Configure the board for this MiL set-up (TOML): its model, parameters, limits,
+        /// command filter and sample rate, as `mil sim --board qemu` configures the board
+        /// in QEMU; only the parameters that differ are written, and printed old → new.
+        #[arg(long)]
+        setup: Option<PathBuf>,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -346,6 +364,19 @@ fn set_up(path: Option<&Path>, filter: Option<&Path>) -> Result<SetUp> {
         };
     }
     Ok(s)
+}
+
+/// The firmware image `elf`, or the one under the build folder.
+fn firmware_elf(elf: Option<PathBuf>) -> Result<PathBuf> {
+    match elf {
+        Some(e) => Ok(e),
+        None => anyhow::Context::with_context(mil_can::find_firmware_elf(), || {
+            format!(
+                "no firmware image found: build it with `{}` or give --elf",
+                mil_can::FIRMWARE_BUILD_COMMAND
+            )
+        }),
+    }
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -502,7 +533,15 @@ fn run(cli: Cli) -> Result<()> {
             board,
             elf,
             duration,
+            xcp,
+            wait,
         } => {
+            if xcp.is_some() && board != SimBoard::Qemu {
+                anyhow::bail!("--xcp serves the XCP port of the board in QEMU: add --board qemu");
+            }
+            if !(wait.is_finite() && wait > 0.0) {
+                anyhow::bail!("--wait: a time in seconds above 0, got {wait}");
+            }
             let mut config = set_up(setup.as_deref(), filter.as_deref())?.sim()?;
             mil::cli::check_output_folder(&out)?;
             if let Some(d) = duration {
@@ -514,19 +553,23 @@ fn run(cli: Cli) -> Result<()> {
             let (result, qemu) = match board {
                 SimBoard::Host => (mil::sim::simulate(&config, progress)?, None),
                 SimBoard::Qemu => {
-                    let elf = match elf {
-                        Some(e) => e,
-                        None => {
-                            anyhow::Context::with_context(mil_can::find_firmware_elf(), || {
-                                format!(
-                                    "no firmware image found: build it with `{}` or give --elf",
-                                    mil_can::FIRMWARE_BUILD_COMMAND
-                                )
-                            })?
-                        }
-                    };
+                    let elf = firmware_elf(elf)?;
                     bar.set_message("the firmware in QEMU on the simulated rig");
-                    let (r, q) = mil::sim::simulate_on_qemu(&config, &elf, progress)?;
+                    let serve = xcp.map(|listen| mil::sim::ServeXcp {
+                        listen,
+                        wait: std::time::Duration::from_secs_f64(wait),
+                    });
+                    let ready = |at: std::net::SocketAddr| {
+                        bar.suspend(|| {
+                            eprintln!(
+                                "the board's XCP port: tcp:{at} (mil param, mil filter upload, mil \
+                                 daq record --port tcp:{at}); the rig runs its road once a DAQ \
+                                 measurement starts"
+                            );
+                        });
+                        bar.set_message("waiting for a DAQ measurement on the board");
+                    };
+                    let (r, q) = mil::sim::simulate_on_qemu(&config, &elf, serve, ready, progress)?;
                     (r, Some(q))
                 }
             };
@@ -591,13 +634,24 @@ fn run(cli: Cli) -> Result<()> {
                                 .map_or(q.elf.clone(), |n| n.to_string_lossy().to_string())
                         )
                     };
+                    match &q.xcp_served_at {
+                        Some(at) => outln!(
+                            "firmware in QEMU: {image} (configured by {} XCP client(s) at tcp:{at})",
+                            q.xcp_clients
+                        ),
+                        None => outln!(
+                            "firmware in QEMU: {image} ({} parameter slots written over XCP)",
+                            q.slots_written
+                        ),
+                    }
                     outln!(
-                        "firmware in QEMU: {image} ({} parameter slots written over XCP)",
-                        q.slots_written
-                    );
-                    outln!(
-                        "demand frames:  {} compared with the host mirror, {} mismatches",
+                        "demand frames:  {} compared with the host mirror{}, {} mismatches",
                         q.demand_frames,
+                        if q.xcp_served_at.is_some() {
+                            " of the set-up"
+                        } else {
+                            ""
+                        },
                         q.mismatches
                     );
                 }
@@ -630,9 +684,15 @@ fn run(cli: Cli) -> Result<()> {
             // The image must do what the host code does: a differing frame fails the run.
             if let Some(q) = qemu.as_ref().filter(|q| q.mismatches > 0) {
                 anyhow::bail!(
-                    "{} of {} demand frames of the firmware differ from the host mirror's",
+                    "{} of {} demand frames of the firmware differ from the host mirror's{}",
                     q.mismatches,
-                    q.demand_frames
+                    q.demand_frames,
+                    if q.xcp_served_at.is_some() {
+                        ": the board was not configured as the set-up says (`mil param set \
+                         --setup`, and the filter with `mil filter upload`)"
+                    } else {
+                        ""
+                    }
                 );
             }
             Ok(())
@@ -677,6 +737,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::A2l { elf, out } => {
+            let elf = firmware_elf(elf)?;
             let bytes =
                 std::fs::read(&elf).map_err(|e| anyhow::anyhow!("{}: {e}", elf.display()))?;
             let layout =
@@ -689,7 +750,8 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
             }
-            std::fs::write(&out, mil_a2l::generate(&layout, &version))?;
+            let text = mil_a2l::generate(&layout, &version);
+            mil::cli::write_atomic(&out, |w| Ok(std::io::Write::write_all(w, text.as_bytes())?))?;
             outln!(
                 "{}: calibration page at 0x{:08X} ({} bytes), measurements at 0x{:08X} ({} bytes)",
                 out.display(),
@@ -722,16 +784,43 @@ fn run_param(command: ParamCommand) -> Result<()> {
             let table = mil::xcp::session(&board, &a2l, |m| mil::param::get(m, &a2l, &names))?;
             out!("{table}");
         }
-        ParamCommand::Set { assignments, board } => {
+        ParamCommand::Set {
+            assignments,
+            setup,
+            board,
+        } => {
             let a2l = mil::xcp::load_a2l(&board.a2l)?;
-            let assignments = mil::param::parse_assignments(&assignments)?;
+            let given = mil::param::parse_assignments(&assignments)?;
+            let assignments = match &setup {
+                Some(path) => {
+                    let config = set_up(Some(path), None)?.sim()?;
+                    let mut all = mil::param::page_assignments(&mil::sim::board_page(&config)?);
+                    for (name, v) in given {
+                        match all.iter_mut().find(|(n, _)| *n == name) {
+                            Some(slot) => slot.1 = v,
+                            None => all.push((name, v)),
+                        }
+                    }
+                    all
+                }
+                None => given,
+            };
             // Everything the host can check, before the board is contacted.
             mil::param::check_assignments(&a2l, &assignments)?;
             let secret = mil::xcp::secret(&board)?;
-            let changes = mil::xcp::session(&board, &a2l, |m| {
-                mil::param::set(m, &a2l, &assignments, &secret)
+            let changes = mil::xcp::session(&board, &a2l, |m| match &setup {
+                Some(_) => mil::param::set_all(m, &a2l, &assignments, &secret),
+                None => mil::param::set(m, &a2l, &assignments, &secret),
             })?;
             out!("{}", mil::param::changes_table(&a2l, &changes));
+            if let Some(path) = &setup {
+                outln!(
+                    "the board is configured for {} ({} of {} parameters changed)",
+                    path.display(),
+                    changes.len(),
+                    assignments.len()
+                );
+            }
         }
         ParamCommand::Store { board } => {
             let a2l = mil::xcp::load_a2l(&board.a2l)?;

@@ -163,6 +163,67 @@ pub fn set<T: Transport>(
     Ok(master.write_items(&items, &values)?)
 }
 
+/// `NAME=VALUE` for every calibration parameter of a board page (slot order, A2L names), e.g.
+/// [`crate::sim::board_page`]'s for a set-up.
+pub fn page_assignments(page: &[f32]) -> Vec<(String, f64)> {
+    page.iter()
+        .enumerate()
+        .filter_map(|(slot, &v)| {
+            mil_firmware::calibration::item(slot).map(|item| (item.to_string(), f64::from(v)))
+        })
+        .collect()
+}
+
+/// `mil param set --setup`: unlocks CAL/PAG with `secret` and writes the parameters of
+/// `assignments` whose value on the board differs, one change each, in passes: a change the
+/// board refuses now (a limit crossing one not yet written, a model kind whose parameters are
+/// not yet there) is tried again after the others, until every one is applied or a pass
+/// applies none. Returns the changes made.
+///
+/// # Errors
+/// Host-side check failures (nothing sent), a wrong secret, changes the board refuses in
+/// every order (named, with the board's last reason).
+pub fn set_all<T: Transport>(
+    master: &mut Master<T>,
+    a2l: &A2l,
+    assignments: &[(String, f64)],
+    secret: &[u8],
+) -> Result<Vec<Change>> {
+    let (items, values) = check_assignments(a2l, assignments)?;
+    master.unlock(resource::CAL_PAG, secret)?;
+    let current = master.read_items(&items)?;
+    // The board holds f32: a value equal after rounding to f32 is not written again.
+    let mut pending: Vec<usize> = (0..items.len())
+        .filter(|&i| current[i] as f32 != values[i] as f32)
+        .collect();
+    let mut changes = Vec::new();
+    while !pending.is_empty() {
+        let mut refused = Vec::new();
+        let mut last = None;
+        for &i in &pending {
+            match master.write_items(&[items[i]], &[values[i]]) {
+                Ok(c) => changes.extend(c),
+                Err(e @ mil_xcp_master::Error::Refused { .. }) => {
+                    refused.push(i);
+                    last = Some(e);
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+        if refused.len() == pending.len() {
+            let names: Vec<&str> = refused.iter().map(|&i| items[i].name.as_str()).collect();
+            bail!(
+                "the board refuses {} in every order ({} other change(s) applied); last: {}",
+                names.join(", "),
+                changes.len(),
+                last.map_or_else(String::new, |e| e.to_string())
+            );
+        }
+        pending = refused;
+    }
+    Ok(changes)
+}
+
 /// How long `store` waits for the board (a flash sector erase takes seconds).
 pub const STORE_WAIT: std::time::Duration = std::time::Duration::from_secs(20);
 
@@ -245,5 +306,70 @@ mod tests {
             "`tyre_stiffness`: expected NAME=VALUE"
         );
         assert!(parse_assignments(&["x=fast".into()]).is_err());
+    }
+}
+
+#[cfg(test)]
+mod setup_tests {
+    use super::*;
+    use mil_firmware::calibration::{MEASUREMENT_BYTES, PAGE_BYTES, SLOTS};
+
+    /// The A2L of a firmware whose page and measurements sit at made-up addresses.
+    fn a2l() -> A2l {
+        let block = |address, size: usize| mil_a2l::Block {
+            address,
+            size: size as u32,
+        };
+        let layout = mil_a2l::Layout {
+            calibration: block(0x2000_8000, PAGE_BYTES),
+            measurement: block(0x2000_7000, MEASUREMENT_BYTES),
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mil.a2l");
+        std::fs::write(&path, mil_a2l::generate(&layout, "test")).unwrap();
+        A2l::load(&path).unwrap()
+    }
+
+    /// Every example set-up the board runs becomes one value per calibration parameter, each
+    /// named as in the A2L and within its limits (what `mil param set --setup` checks before
+    /// it sends anything), the sample rate and the model's channels among them.
+    #[test]
+    fn every_board_set_up_maps_onto_the_a2l() {
+        let a2l = a2l();
+        let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+        // tyre.toml's four wheels at 2 kHz need more than the bus: refused, with the rate
+        // that fits.
+        let tyre = crate::setup::SetUp::read(&examples.join("tyre.toml"))
+            .and_then(|s| s.sim())
+            .unwrap();
+        let e = crate::sim::board_page(&tyre).unwrap_err().to_string();
+        assert!(e.contains("it runs at up to"), "{e}");
+        for name in ["tyre-board.toml", "aero.toml", "two-dof.toml"] {
+            let config = crate::setup::SetUp::read(&examples.join(name))
+                .and_then(|s| s.sim())
+                .unwrap();
+            let page = crate::sim::board_page(&config).unwrap();
+            let assignments = page_assignments(&page);
+            assert_eq!(assignments.len(), SLOTS, "{name}");
+            let (items, values) =
+                check_assignments(&a2l, &assignments).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(items.len(), a2l.characteristics.len(), "{name}");
+            let rate = assignments
+                .iter()
+                .find(|(n, _)| n == "sample_rate")
+                .unwrap()
+                .1;
+            assert_eq!(rate, config.run.sample_rate_hz, "{name}");
+            // Each slot's item sits at its slot's address.
+            for (k, item) in items.iter().enumerate() {
+                assert_eq!(
+                    item.address,
+                    0x2000_8000 + 4 * k as u32,
+                    "{name}: {}",
+                    item.name
+                );
+            }
+            assert_eq!(values.len(), SLOTS);
+        }
     }
 }

@@ -108,5 +108,105 @@ fn two_runs_are_compared_column_by_column_and_mistakes_are_named() {
     );
     let (code, _, stderr) = mil(dir.path(), &["compare", "a.csv", "--against", "a.csv"]);
     assert_eq!(code, Some(1));
-    assert!(stderr.contains("equal in every shared column"), "{stderr}");
+    assert!(stderr.contains("a.csv is compared with itself"), "{stderr}");
+    // Two runs equal sample for sample: said so, not an error.
+    std::fs::copy(dir.path().join("a.csv"), dir.path().join("a2.csv")).unwrap();
+    let (code, stdout, stderr) = mil(dir.path(), &["compare", "a.csv", "--against", "a2.csv"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(
+        stdout.contains("equal in every shared column, sample for sample: road_0, emulated_force_0, mil_force_0"),
+        "{stdout}"
+    );
+}
+
+/// A board recording as `mil daq record` writes it (`time, position, road, demand`: the
+/// A2L's names, the road quantised to 1 µm as the board receives it) against a run with
+/// `road_0`, `mil_position_0`, `demand_0`: the board's signals are paired with the run's
+/// columns, the quantised road is the same input, a road 5 % larger is not.
+#[test]
+fn a_board_recording_pairs_with_the_run_and_its_quantised_road_is_the_same_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 1000.0;
+    let road = |t: f64| 2e-3 * (TAU * 2.0 * t).sin() + 5e-4 * (TAU * 11.0 * t).sin();
+    let demand =
+        |t: f64| 1667.7 + 400.0 * (TAU * 2.0 * t + 0.3).sin() + 150.0 * (TAU * 17.0 * t).sin();
+    let position = |t: f64| 1e-3 * (TAU * 2.0 * t + 0.5).sin();
+    let write_daq = |name: &str, road_scale: f64| {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(dir.path().join(name)).unwrap());
+        writeln!(w, "time [s],position [m],road [m],demand [N]").unwrap();
+        for i in 0..(5.0 * fs) as usize {
+            let t = i as f64 / fs;
+            let r = (road_scale * road(t) / 1e-6).round() * 1e-6;
+            // The board's demand 2 ms later than the run's.
+            writeln!(w, "{t},{},{r},{}", position(t), demand(t - 0.002)).unwrap();
+        }
+    };
+    write_daq("daq.csv", 1.0);
+    write_daq("other-road.csv", 1.05);
+    let mut w = std::io::BufWriter::new(std::fs::File::create(dir.path().join("run.csv")).unwrap());
+    writeln!(
+        w,
+        "time [s],road_0 [m],demand_0 [N],mil_position_0 [m],emulated_position_0 [m]"
+    )
+    .unwrap();
+    for i in 0..(5.0 * fs) as usize {
+        let t = i as f64 / fs;
+        writeln!(
+            w,
+            "{t},{},{},{},{}",
+            road(t),
+            demand(t),
+            position(t),
+            position(t)
+        )
+        .unwrap();
+    }
+    drop(w);
+    let (code, stdout, stderr) = mil(
+        dir.path(),
+        &[
+            "compare",
+            "daq.csv",
+            "--against",
+            "run.csv",
+            "--json",
+            "--out",
+            "cmp",
+        ],
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let pairs: Vec<(&str, &str)> = v["pairs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            (
+                p["column"].as_str().unwrap(),
+                p["reference"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    // The position is equal in both: named once, not tabled.
+    assert_eq!(pairs, [("road", "road_0"), ("demand", "demand_0")], "{v}");
+    assert_eq!(v["identical"], serde_json::json!(["position"]));
+    let j1 = v["pairs"][1]["figures"]["delay_ms"].as_f64().unwrap();
+    assert!((j1 - 2.0).abs() < 0.1, "J1 {j1}");
+
+    let (code, _, stderr) = mil(
+        dir.path(),
+        &[
+            "compare",
+            "other-road.csv",
+            "--against",
+            "run.csv",
+            "--out",
+            "cmp",
+        ],
+    );
+    assert_eq!(code, Some(1));
+    assert!(
+        stderr.contains("different inputs (column `road`"),
+        "{stderr}"
+    );
 }
