@@ -4,7 +4,9 @@ the tutorial shows, so the tutorial cannot rot.
 
 The tutorial's shell blocks (```sh) are run in order (a ` #` and what follows it on a line is
 a comment and is not run), each command line in one shell that
-keeps its working folder between blocks (a `cd` carries over), starting in a fresh folder
+keeps its working folder between blocks (a `cd` carries over), as a terminal session would:
+`export NAME=VALUE` carries over too, a line ending in `&` runs in the background and `wait`
+waits for every background line (each must succeed), starting in a fresh folder
 that sees the checkout's `host-tools` and `docs` (links), as the repository's root would. The `mil` on the
 PATH is the one this checkout builds (`cargo build --release -p mil`, run here first).
 A ```text block right after a ```sh block is the output of that block's commands (stdout,
@@ -19,6 +21,7 @@ Usage: python3 docs/tutorial-check.py [--keep] [--update]
 """
 
 import os
+import shlex
 import re
 import shutil
 import subprocess
@@ -28,7 +31,7 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TUTORIAL = os.path.join(ROOT, "docs", "tutorial.md")
-NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+NUMBER = re.compile(r"0x[0-9A-Fa-f]+|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 def blocks(text):
@@ -44,7 +47,8 @@ def split(line):
     parts, last = [], 0
     for m in NUMBER.finditer(line):
         parts.append(line[last:m.start()])
-        parts.append(float(m.group()))
+        text = m.group()
+        parts.append(float(int(text, 16)) if text.startswith("0x") else float(text))
         last = m.end()
     parts.append(line[last:])
     return parts
@@ -111,6 +115,7 @@ def main():
     fenced = blocks(markdown)
     outputs = {}
     commands, failures = 0, []
+    background = []  # (line, process, stderr file)
     started = time.monotonic()
     for n, (kind, body) in enumerate(fenced):
         if kind != "sh":
@@ -123,6 +128,27 @@ def main():
                 continue
             commands += 1
             print(f"$ {line}", flush=True)
+            if line.startswith("export "):
+                for item in shlex.split(line[len("export "):]):
+                    name, _, value = item.partition("=")
+                    env[name] = value
+                continue
+            if line.endswith("&"):
+                err = tempfile.TemporaryFile()
+                p = subprocess.Popen(["bash", "-c", f"set -e; {line[:-1]}"], cwd=cwd, env=env,
+                                     stdout=subprocess.DEVNULL, stderr=err)
+                background.append((line, p, err))
+                continue
+            if line == "wait":
+                for bline, p, err in background:
+                    if p.wait() != 0:
+                        err.seek(0)
+                        print(err.read().decode(errors="replace"))
+                        failures.append(f"`{bline}` exited with {p.returncode}")
+                background = []
+                if failures:
+                    break
+                continue
             # `cd` carries over: run the command, then print the folder it ended in.
             r = subprocess.run(
                 ["bash", "-c", f'set -e; {line}\necho "@@cwd@@$PWD"'],
@@ -143,6 +169,10 @@ def main():
             problem = matches(expected, output)
             if problem:
                 failures.append(f"block {n}: output differs from the tutorial:\n     {problem}")
+    for bline, p, _ in background:
+        if p.poll() is None:
+            p.kill()
+            failures.append(f"`{bline}` was never waited for")
     elapsed = time.monotonic() - started
     if update and not failures:
         parts, k = [], 0
