@@ -259,11 +259,17 @@ fn bode_errors() {
 
     assert!(!path.exists(), "no file is written on errors");
 
-    let unwritable = dir.path().join("missing-folder").join("bode.svg");
+    // A missing folder is made; one that cannot be (a file in its way) is named.
+    std::fs::write(dir.path().join("a-file"), "x").unwrap();
+    let unwritable = dir.path().join("a-file").join("bode.svg");
     let err = bode_svg(&unwritable, &sample_bode())
         .unwrap_err()
         .to_string();
-    assert!(err.contains("cannot write plot"), "{err}");
+    assert!(err.contains("cannot create the folder"), "{err}");
+    assert!(err.contains("a-file"), "{err}");
+    let made = dir.path().join("missing-folder").join("bode.svg");
+    bode_svg(&made, &sample_bode()).unwrap();
+    assert!(made.is_file());
 }
 
 #[test]
@@ -410,7 +416,8 @@ fn xy_errors() {
     let err = xy_svg(&path, &plot).unwrap_err().to_string();
     assert!(err.contains("no finite data"), "{err}");
     assert!(!path.exists());
-    let unwritable = dir.path().join("missing-folder").join("xy.svg");
+    std::fs::write(dir.path().join("a-file"), "x").unwrap();
+    let unwritable = dir.path().join("a-file").join("xy.svg");
     assert!(xy_svg(&unwritable, &sample_xy()).is_err());
 }
 
