@@ -201,12 +201,13 @@ impl RunOutput {
         // Whole or not at all: an interrupted run leaves no truncated file.
         crate::cli::write_atomic(path, |w| {
             let ch = self.summary.channels;
-            let mut header = vec!["time".to_string()];
-            header.extend((0..ch).map(|c| format!("road_{c}")));
+            // Every column with its unit (SI); the status columns have none.
+            let mut header = vec!["time [s]".to_string()];
+            header.extend((0..ch).map(|c| format!("road_{c} [m]")));
             if self.speed.is_some() {
-                header.push("speed".into());
+                header.push("speed [m/s]".into());
             }
-            header.extend((0..ch).map(|c| format!("demand_{c}")));
+            header.extend((0..ch).map(|c| format!("demand_{c} [N]")));
             header.extend(["mode", "amplitude_limited", "rate_limited"].map(String::from));
             writeln!(w, "{}", header.join(","))?;
             for (k, (((t, z), d), s)) in self

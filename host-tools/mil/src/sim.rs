@@ -179,6 +179,44 @@ pub struct SimOutput {
     pub summary: SimSummary,
     /// Response curves, when estimated.
     pub curves: Option<ResponseCurves>,
+    /// The unit of each DOF history (`histories.mil_dofs`' order): `m` for a translation,
+    /// `rad` for a rotation.
+    pub dof_units: Vec<&'static str>,
+}
+
+/// The unit of each DOF history of a run of `config` (`mil_dofs`' order, each named
+/// `<dof>_<first channel>`): `rad` for a rotation (the aero half car's pitch `theta_b`, a
+/// structure's `kind = "rotation"` DOFs), else `m`.
+fn dof_units(config: &Config, aero: bool, mil_dofs: &[(String, Vec<f64>)]) -> Vec<&'static str> {
+    let rotations: Vec<String> = if aero {
+        vec!["theta_b".into()]
+    } else {
+        config
+            .rig
+            .structure
+            .as_ref()
+            .and_then(|on_rig| mil_structure::Model::read(&config.base.join(&on_rig.file)).ok())
+            .map(|m| {
+                m.dofs
+                    .iter()
+                    .zip(&m.kinds)
+                    .filter(|(_, k)| **k == mil_structure::model::DofKind::Rotation)
+                    .map(|(d, _)| d.clone())
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    mil_dofs
+        .iter()
+        .map(|(name, _)| {
+            let dof = name.rsplit_once('_').map_or(name.as_str(), |(d, _)| d);
+            if rotations.iter().any(|r| r == dof) {
+                "rad"
+            } else {
+                "m"
+            }
+        })
+        .collect()
 }
 
 /// Everything [`simulate`] validates before it runs (what `mil check` runs on a set-up): the
@@ -485,6 +523,7 @@ fn simulate_with(
         Validated::Aero(_, profile) => Some(profile.samples(n, fs)),
         _ => None,
     };
+    let aero = speed.is_some();
     let mut inputs = columns(&rows, channels);
     inputs.extend(speed);
     let setting = setting(config, validated)?;
@@ -547,6 +586,7 @@ fn simulate_with(
             }
         })
         .collect();
+    let dof_units = dof_units(config, aero, &histories.mil_dofs);
     let (response, curves) = match response(config, &histories, prediction.as_ref())? {
         Some((s, c)) => (Some(s), Some(c)),
         None => (None, None),
@@ -577,6 +617,7 @@ fn simulate_with(
         histories,
         summary,
         curves,
+        dof_units,
     })
 }
 
@@ -935,21 +976,30 @@ impl SimOutput {
         crate::cli::write_atomic(path, |w| {
             let h = &self.histories;
             let ch = self.summary.channels;
-            let mut header = vec!["time".to_string()];
-            header.extend(self.road_names.iter().cloned());
+            // Every column with its unit (SI).
+            let mut header = vec!["time [s]".to_string()];
+            header.extend(self.road_names.iter().map(|name| {
+                let unit = if name == "speed" { "m/s" } else { "m" };
+                format!("{name} [{unit}]")
+            }));
             for c in 0..ch {
                 header.extend(
                     [
-                        "demand",
-                        "mil_position",
-                        "mil_force",
-                        "emulated_position",
-                        "emulated_force",
+                        ("demand", "N"),
+                        ("mil_position", "m"),
+                        ("mil_force", "N"),
+                        ("emulated_position", "m"),
+                        ("emulated_force", "N"),
                     ]
-                    .map(|s| format!("{s}_{c}")),
+                    .map(|(s, unit)| format!("{s}_{c} [{unit}]")),
                 );
             }
-            header.extend(h.mil_dofs.iter().map(|(name, _)| format!("mil_dof_{name}")));
+            header.extend(
+                h.mil_dofs
+                    .iter()
+                    .zip(self.dof_units.iter().chain(std::iter::repeat(&"m")))
+                    .map(|((name, _), unit)| format!("mil_dof_{name} [{unit}]")),
+            );
             header.extend(["mode", "fault"].map(String::from));
             writeln!(w, "{}", header.join(","))?;
             for k in 0..h.len() {

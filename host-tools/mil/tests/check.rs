@@ -212,7 +212,7 @@ fn a_record_in_mm_is_refused_against_its_structure() {
     let header = lines.next().unwrap();
     let at = header
         .split(',')
-        .position(|c| c == "mil_position_0")
+        .position(|c| c == "mil_position_0 [m]")
         .unwrap();
     let mut mm = header.to_string() + "\n";
     for line in lines {
@@ -418,7 +418,7 @@ proptest! {
         let text = two_dof_record();
         let mut lines = text.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let force = header.iter().position(|c| *c == "mil_force_0").unwrap();
+        let force = header.iter().position(|c| *c == "mil_force_0 [N]").unwrap();
         let dt = 1.0 / 2000.0;
         let mut rng = mil_numerics::rng::SplitMix64::new(seed);
         let mut out = std::iter::once(time_header)

@@ -172,7 +172,13 @@ fn a_recorded_speed_is_interpolated_and_written_to_the_csv() {
     out.write_csv(&csv).unwrap();
     let text = std::fs::read_to_string(&csv).unwrap();
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    assert_eq!(header[..4], ["time", "road_front", "road_rear", "speed"]);
+    assert_eq!(
+        header[..4],
+        ["time [s]", "road_front [m]", "road_rear [m]", "speed [m/s]"]
+    );
+    // The half car's heave and pitch.
+    assert!(header.contains(&"mil_dof_z_b_0 [m]"), "{header:?}");
+    assert!(header.contains(&"mil_dof_theta_b_0 [rad]"), "{header:?}");
     let row: Vec<f64> = text
         .lines()
         .nth(1 + 1000)
@@ -235,7 +241,9 @@ fn mil_run_follows_the_speed() {
     let csv = dir.path().join("run.csv");
     out.write_csv(&csv).unwrap();
     let text = std::fs::read_to_string(&csv).unwrap();
-    assert!(text.starts_with("time,road_0,road_1,speed,demand_0,demand_1,"));
+    assert!(
+        text.starts_with("time [s],road_0 [m],road_1 [m],speed [m/s],demand_0 [N],demand_1 [N],")
+    );
 }
 
 /// Bad speed inputs are refused before running, with the file, line (and column) and reason.
