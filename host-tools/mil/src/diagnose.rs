@@ -50,8 +50,9 @@ pub struct DiagnoseOutput {
     pub report: PathBuf,
     /// The plots written (SVG).
     pub plots: Vec<PathBuf>,
-    /// The `[numerical.tyre]` table written for model-core's real-time tyre (`--tyre`).
-    pub tyre: Option<PathBuf>,
+    /// The `[numerical.tyre]` table written for model-core's real-time tyre (`--tyre`), or
+    /// why it could not be.
+    pub tyre: Option<std::result::Result<PathBuf, String>>,
 }
 
 /// Reads the model and the record, checks that the record has the model's columns, runs the
@@ -81,16 +82,15 @@ pub fn run_diagnose(
     let report = request.out.join("report.json");
     progress(1.0, "writing plots");
     let plots = write_plots(&diagnosis, record, &request.out)?;
-    let tyre = match &request.tyre {
-        Some(t) => {
-            let section = tyre_section(&diagnosis.updated, &t.element, t.static_load_n)?;
-            let path = request.out.join("numerical-tyre.toml");
-            std::fs::write(&path, tyre_toml(&section, &t.element, &request.model)?)
-                .with_context(|| format!("writing {}", path.display()))?;
-            Some(path)
-        }
-        None => None,
-    };
+    // A tyre that cannot be exported does not hide the diagnosis: it is reported beside it.
+    let tyre = request.tyre.as_ref().map(|t| {
+        let path = request.out.join("numerical-tyre.toml");
+        tyre_section(&diagnosis.updated, &t.element, t.static_load_n)
+            .and_then(|section| tyre_toml(&section, &t.element, &request.model))
+            .and_then(|text| Ok(mil_numerics::files::write_atomic(&path, text.as_bytes())?))
+            .map(|()| path)
+            .map_err(|e| format!("{e:#}"))
+    });
     Ok(DiagnoseOutput {
         diagnosis,
         updated_model,
@@ -257,7 +257,7 @@ impl DiagnoseOutput {
         for p in &self.plots {
             s.push_str(&format!("plot:          {}\n", p.display()));
         }
-        if let Some(t) = &self.tyre {
+        if let Some(Ok(t)) = &self.tyre {
             s.push_str(&format!("tyre (model-core): {}\n", t.display()));
         }
         s

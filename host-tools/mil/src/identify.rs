@@ -78,6 +78,56 @@ pub enum Tracking {
     Refused(String),
 }
 
+/// An identification error naming the record's file and columns (the estimator numbers
+/// records and calls them input and output).
+fn named(e: mil_identify::IdentifyError, o: &IdentifyOptions) -> anyhow::Error {
+    use mil_identify::IdentifyError as E;
+    let file = |i: usize| {
+        o.records
+            .get(i)
+            .map_or_else(|| format!("record {i}"), |p| p.display().to_string())
+    };
+    let column = |signal: &str| {
+        if signal == "input" {
+            o.input.clone()
+        } else {
+            o.output.clone()
+        }
+    };
+    match e {
+        E::LengthMismatch {
+            record,
+            input,
+            output,
+        } => anyhow::anyhow!(
+            "{}: {} has {input} samples but {} has {output}",
+            file(record),
+            o.input,
+            o.output
+        ),
+        E::RecordTooShort {
+            record,
+            samples,
+            segment_length,
+        } => anyhow::anyhow!(
+            "{}: {samples} samples is shorter than one segment of {segment_length} samples: \
+             record longer, or give a shorter --segment",
+            file(record)
+        ),
+        E::NonFinite {
+            record,
+            signal,
+            index,
+            value,
+        } => anyhow::anyhow!(
+            "{}: {} sample {index} is not finite ({value})",
+            file(record),
+            column(signal)
+        ),
+        other => other.into(),
+    }
+}
+
 /// Runs the identification and writes the table.
 ///
 /// # Errors
@@ -118,7 +168,7 @@ pub fn run_identify(o: &IdentifyOptions) -> Result<(FrfTable, IdentifySummary)> 
         },
         None => WelchOptions::for_record(shortest),
     };
-    let estimate = h1_estimate(&records, fs, &options)?;
+    let estimate = h1_estimate(&records, fs, &options).map_err(|e| named(e, o))?;
     let table = estimate.to_table(o.band_hz.0, o.band_hz.1, o.min_coherence)?;
     crate::cli::write_atomic(&o.out, |w| Ok(table.to_writer(w)?))?;
     let measured = MeasuredResponse::new(table.clone(), &o.out.display().to_string());

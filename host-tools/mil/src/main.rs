@@ -95,7 +95,7 @@ enum Command {
         /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
         #[arg(long)]
         filter: Option<PathBuf>,
-        /// Output folder for run.csv and run.svg.
+        /// Output folder for run.csv, run.svg (demand) and run-road.svg.
         #[arg(long, default_value = "out")]
         out: PathBuf,
         /// Print one JSON object with the summary instead of the table.
@@ -394,15 +394,16 @@ fn run(cli: Cli) -> Result<()> {
             bar.finish_and_clear();
             std::fs::create_dir_all(&out)?;
             let csv = out.join("run.csv");
-            let svg = out.join("run.svg");
             result.write_csv(&csv)?;
-            mil::plot::plot_run(&result, &svg)?;
+            let plots = mil::plot::plot_run(&result, &out)?;
             if json {
                 outln!("{}", serde_json::to_string(&result.summary)?);
             } else {
                 out!("{}", result.table());
                 outln!("time histories: {}", csv.display());
-                outln!("plot:           {}", svg.display());
+                for p in &plots {
+                    outln!("plot:           {}", p.display());
+                }
             }
             // A faulted run is a failed one: the files are complete, the status says so.
             if let Some(t) = result.summary.fault_at_s {
@@ -733,6 +734,10 @@ fn run(cli: Cli) -> Result<()> {
                 outln!("{}", serde_json::to_string(&result.json_report())?);
             } else {
                 out!("{}", result.table());
+            }
+            // After the diagnosis, which stands without it.
+            if let Some(Err(why)) = &result.tyre {
+                anyhow::bail!("--tyre: {why}");
             }
             Ok(())
         }

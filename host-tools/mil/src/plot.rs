@@ -1,93 +1,54 @@
-//! SVG plots of run results (plotters, SVG backend).
+//! `mil run`'s plots, drawn by `mil-plots` like every other plot of the tools.
 
 use crate::run::RunOutput;
-use anyhow::{anyhow, Result};
-use plotters::prelude::*;
-use std::path::Path;
+use anyhow::Result;
+use mil_plots::{xy_svg, SeriesStyle, XyPlot, XySeries};
+use std::path::{Path, PathBuf};
 
-/// Plots road input (mm) and demand (N) of channel 0 (and channel 1 when present) against
-/// time, one panel each.
-pub fn plot_run(out: &RunOutput, path: &Path) -> Result<()> {
-    let root = SVGBackend::new(path, (1200, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-    let (upper, lower) = root.split_vertically(350);
-    let channels = out.summary.channels.min(2);
-    let road: Vec<Vec<f64>> = out
-        .road
-        .iter()
-        .map(|r| r.iter().map(|v| v * 1e3).collect())
-        .collect();
-    panel(
-        &upper,
-        "Road input",
-        "road [mm]",
-        &out.time,
-        &road,
-        channels,
-    )?;
-    panel(
-        &lower,
-        "Actuator demand",
-        "demand [N]",
-        &out.time,
-        &out.demand,
-        channels,
-    )?;
-    root.present().map_err(|e| anyhow!("{e}"))?;
-    Ok(())
-}
+/// At most about this many points per line (a long run is decimated for the plot only).
+const MAX_POINTS: usize = 4000;
 
-/// One time-history panel of the first `channels` columns of `values` (`[sample][channel]`),
-/// decimated to at most about 4000 points per line.
-fn panel<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    title: &str,
-    y_label: &str,
-    time: &[f64],
-    values: &[Vec<f64>],
-    channels: usize,
-) -> Result<()> {
-    let colours = [&BLUE, &RED];
-    let t_end = time.last().copied().unwrap_or(1.0);
-    let step = (time.len() / 4000).max(1);
-    let (lo, hi) = values
-        .iter()
-        .flat_map(|v| v.iter().take(channels))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-            (a.min(*x), b.max(*x))
-        });
-    let pad = ((hi - lo) * 0.05).max(1e-9);
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))
-        .map_err(|e| anyhow!("{e}"))?;
-    chart
-        .configure_mesh()
-        .x_desc("time [s]")
-        .y_desc(y_label)
-        .draw()
-        .map_err(|e| anyhow!("{e}"))?;
-    for (ch, colour) in colours.iter().enumerate().take(channels) {
-        chart
-            .draw_series(LineSeries::new(
-                time.iter()
-                    .zip(values)
-                    .step_by(step)
-                    .map(|(t, v)| (*t, v.get(ch).copied().unwrap_or(0.0))),
-                *colour,
-            ))
-            .map_err(|e| anyhow!("{e}"))?
-            .label(format!("channel {ch}"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], *colour));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| anyhow!("{e}"))?;
-    Ok(())
+/// Writes `run.svg` (every channel's demand, kN) and `run-road.svg` (every channel's road,
+/// mm) into `dir`; returns their paths.
+///
+/// # Errors
+/// A plot cannot be written.
+pub fn plot_run(out: &RunOutput, dir: &Path) -> Result<Vec<PathBuf>> {
+    let step = (out.time.len() / MAX_POINTS).max(1);
+    let channels = out.summary.channels;
+    let series = |values: &[Vec<f64>], scale: f64| -> Vec<XySeries> {
+        (0..channels)
+            .map(|c| {
+                XySeries::new(
+                    format!("channel {c}"),
+                    out.time
+                        .iter()
+                        .zip(values)
+                        .step_by(step)
+                        .map(|(t, v)| (*t, v.get(c).copied().unwrap_or(f64::NAN) * scale))
+                        .collect(),
+                    SeriesStyle::Line,
+                )
+            })
+            .collect()
+    };
+    let mut files = Vec::new();
+    let mut demand = XyPlot::new(
+        format!(
+            "Actuator demand, {} model, open loop on a rigid rig",
+            out.summary.model
+        ),
+        "time [s]",
+        "demand [kN]",
+    );
+    demand.series = series(&out.demand, 1e-3);
+    let path = dir.join("run.svg");
+    xy_svg(&path, &demand)?;
+    files.push(path);
+    let mut road = XyPlot::new("Road input", "time [s]", "road [mm]");
+    road.series = series(&out.road, 1e3);
+    let path = dir.join("run-road.svg");
+    xy_svg(&path, &road)?;
+    files.push(path);
+    Ok(files)
 }

@@ -313,6 +313,29 @@ fn the_diagnosed_tyre_goes_into_a_sim_configuration() {
     assert_eq!(c.tyre.as_ref().map(|t| t.lift_off), Some(true));
 }
 
+/// A `--tyre` element the updated model does not have: the diagnosis is still printed and
+/// written, the refusal follows it, and the exit status says it failed.
+#[test]
+fn a_tyre_that_cannot_be_exported_does_not_hide_the_diagnosis() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = diagnose_dir().join("examples/silverbox.toml");
+    let data = diagnose_dir().join("data/silverbox_multisine.csv");
+    let out = dir.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_mil"))
+        .args(["diagnose", "--model", text(&model), "--data", text(&data)])
+        .args(["--out", text(&out), "--tyre", "no_such_element"])
+        .output()
+        .expect("run mil");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stdout}{stderr}");
+    assert!(stdout.contains("named effect(s):"), "{stdout}");
+    assert!(out.join("updated.toml").is_file());
+    assert!(stderr.starts_with("Error: --tyre: "), "{stderr}");
+    assert!(stderr.contains("no_such_element"), "{stderr}");
+    assert!(!out.join("numerical-tyre.toml").exists());
+}
+
 #[test]
 fn a_bad_model_file_is_one_clear_line_without_a_backtrace() {
     let dir = std::env::temp_dir().join(format!("mil-diagnose-bad-{}", std::process::id()));

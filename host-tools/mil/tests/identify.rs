@@ -164,3 +164,28 @@ fn the_default_segment_follows_the_shortest_record() {
         }
     }
 }
+
+/// A record too short for the segment asked for is named by its file, not by its index in
+/// the estimator ("record 0"), with the option that helps.
+#[test]
+fn a_record_too_short_is_named_by_its_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("short-sweep.csv");
+    let command: Vec<f64> = (0..1000).map(|i| (i as f64 * 0.1).sin()).collect();
+    let force: Vec<f32> = command.iter().map(|&u| u as f32).collect();
+    write_record(&path, &command, &force);
+    let e = run_identify(&IdentifyOptions {
+        records: vec![path.clone()],
+        input: "force_command".into(),
+        output: "force".into(),
+        segment_length: Some(4096),
+        band_hz: (0.5, 200.0),
+        min_coherence: 0.9,
+        out: dir.path().join("t.csv"),
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(e.starts_with(&path.display().to_string()), "{e}");
+    assert!(!e.contains("record 0"), "{e}");
+    assert!(e.contains("--segment"), "{e}");
+}

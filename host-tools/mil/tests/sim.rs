@@ -222,27 +222,29 @@ fn cli_writes_histories_plots_and_json() {
     assert!(json["fault_at_s"].is_null());
     let (header, rows) = csv_header_and_rows(&out.join("sim.csv"));
     assert_eq!(rows, 8000);
-    assert_eq!(header[0], "time");
+    assert_eq!(header[0], "time [s]");
     // Time, four roads, five columns per wheel, the two DOFs of each wheel's quarter car,
-    // mode and fault.
+    // mode and fault, each with its unit.
     assert_eq!(header.len(), 1 + 4 + 4 * 5 + 4 * 2 + 2);
+    assert_eq!(header[1], "road_0 [m]");
     assert_eq!(
         header[25..29],
         [
-            "mil_dof_x_s_0",
-            "mil_dof_x_u_0",
-            "mil_dof_x_s_1",
-            "mil_dof_x_u_1"
+            "mil_dof_x_s_0 [m]",
+            "mil_dof_x_u_0 [m]",
+            "mil_dof_x_s_1 [m]",
+            "mil_dof_x_u_1 [m]"
         ]
     );
+    assert_eq!(header[33..], ["mode", "fault"]);
     assert_eq!(
         header[5..10],
         [
-            "demand_0",
-            "mil_position_0",
-            "mil_force_0",
-            "emulated_position_0",
-            "emulated_force_0"
+            "demand_0 [N]",
+            "mil_position_0 [m]",
+            "mil_force_0 [N]",
+            "emulated_position_0 [m]",
+            "emulated_force_0 [N]"
         ]
     );
     for plot in ["forces.svg", "positions.svg", "response.svg"] {
@@ -461,4 +463,24 @@ fn a_refused_parameter_is_named_by_its_set_up_key_only() {
         "{stderr}"
     );
     assert!(!stderr.contains("DemandAmplitude"), "{stderr}");
+}
+
+/// `mil run`'s plots are drawn by mil-plots: every channel's demand (not two of four) in
+/// `run.svg`, the roads in `run-road.svg`, both named in the output.
+#[test]
+fn run_plots_every_channel() {
+    let dir = tempfile::tempdir().unwrap();
+    let tyre = examples().join("tyre.toml");
+    let (code, stdout, stderr) =
+        common::mil_in(dir.path(), &["run", tyre.to_str().unwrap(), "--out", "out"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    for file in ["run.svg", "run-road.svg"] {
+        assert!(stdout.contains(&format!("out/{file}")), "{stdout}");
+        let svg = std::fs::read_to_string(dir.path().join("out").join(file)).unwrap();
+        for c in 0..4 {
+            assert!(svg.contains(&format!("channel {c}")), "{file}: channel {c}");
+        }
+    }
+    let svg = std::fs::read_to_string(dir.path().join("out/run.svg")).unwrap();
+    assert!(svg.contains("demand [kN]"));
 }
