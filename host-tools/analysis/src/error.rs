@@ -26,6 +26,9 @@ pub enum AnalysisError {
     /// A command-filter file is not one model-core can run.
     #[error("command-filter file: {0}")]
     FilterFile(String),
+    /// Writing a file failed (the message names it).
+    #[error(transparent)]
+    Write(std::io::Error),
     /// Reading a set-up file failed.
     #[error("reading {path}: {source}")]
     Io {

@@ -199,9 +199,8 @@ impl FilterFile {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
-        std::fs::write(path, text + "\n").map_err(|source| AnalysisError::Io {
-            path: path.display().to_string(),
-            source,
-        })
+        // Whole or not at all: a board never loads a half-written filter.
+        mil_numerics::files::write_atomic(path, (text + "\n").as_bytes())
+            .map_err(AnalysisError::Write)
     }
 }

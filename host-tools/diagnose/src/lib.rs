@@ -73,6 +73,9 @@ pub enum Error {
     /// The workflow cannot proceed (e.g. too little data, nothing measured).
     #[error("diagnose: {0}")]
     Diagnose(String),
+    /// Writing a file failed (the message names it).
+    #[error(transparent)]
+    Write(std::io::Error),
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

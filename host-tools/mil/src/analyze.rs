@@ -276,7 +276,9 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
     files.push(path);
 
     let path = out.join("responses.csv");
-    let mut w = csv::Writer::from_path(&path)?;
+    // Whole or not at all.
+    let mut file = mil_numerics::files::AtomicFile::create(&path)?;
+    let mut w = csv::Writer::from_writer(file.writer());
     let mut header = vec!["frequency_hz".to_string()];
     for resp in &report.responses {
         for which in ["mil", "emulated"] {
@@ -321,6 +323,8 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
         w.write_record(&row)?;
     }
     w.flush()?;
+    drop(w);
+    file.commit()?;
     files.push(path);
     Ok(files)
 }

@@ -50,33 +50,20 @@ pub fn spinner(hidden: bool, message: &'static str) -> ProgressBar {
     bar
 }
 
-/// Writes `path` whole or not at all: `write` fills a temporary file beside it, which then
-/// replaces `path` (a rename), so an interrupted run (Ctrl-C, an error) never leaves a
-/// truncated file where a complete one is expected. The folder is created if missing.
+/// Writes `path` whole or not at all ([`mil_numerics::files`]): `write` fills a temporary
+/// file beside it, which then replaces `path` (a rename), so an interrupted run (Ctrl-C, an
+/// error) never leaves a truncated file where a complete one is expected. The folder is
+/// created if missing.
 ///
 /// # Errors
 /// The folder or the file cannot be written (the path named), or `write` fails.
 pub fn write_atomic(
     path: &Path,
-    write: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> Result<()>,
+    write: impl FnOnce(&mut mil_numerics::files::AtomicFile) -> Result<()>,
 ) -> Result<()> {
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    std::fs::create_dir_all(folder)
-        .with_context(|| format!("cannot create the folder {}", folder.display()))?;
-    let mut file = tempfile::NamedTempFile::new_in(folder)
-        .with_context(|| format!("cannot write in {}", folder.display()))?;
-    {
-        let mut w = std::io::BufWriter::new(file.as_file_mut());
-        write(&mut w)?;
-        w.flush()
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    file.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    let mut file = mil_numerics::files::AtomicFile::create(path)?;
+    write(&mut file)?;
+    file.commit()?;
     Ok(())
 }
 

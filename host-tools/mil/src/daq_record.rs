@@ -86,7 +86,8 @@ pub fn is_mdf(path: &Path) -> bool {
 
 /// Where the samples go.
 enum Sink {
-    Csv(std::io::BufWriter<std::fs::File>),
+    /// Written whole at the end (a recording cut short by an error leaves no file).
+    Csv(mil_numerics::files::AtomicFile),
     Mdf {
         writer: Box<mdf4_rs::MdfWriter<mdf4_rs::writer::FileWriter>>,
         group: String,
@@ -99,11 +100,13 @@ impl Sink {
     /// the channels, with the data block opened.
     fn create(out: &Path, signals: &[&Item]) -> Result<Self> {
         if !is_mdf(out) {
-            let file = std::fs::File::create(out)
-                .with_context(|| format!("cannot create {}", out.display()))?;
-            let mut w = std::io::BufWriter::new(file);
-            let mut header = vec!["time".to_string()];
-            header.extend(signals.iter().map(|s| s.name.clone()));
+            let mut w = mil_numerics::files::AtomicFile::create(out)?;
+            // Each column with its unit (the A2L's; `-` is none).
+            let mut header = vec!["time [s]".to_string()];
+            header.extend(signals.iter().map(|s| match s.unit.as_str() {
+                "-" | "" => s.name.clone(),
+                unit => format!("{} [{unit}]", s.name),
+            }));
             writeln!(w, "{}", header.join(","))?;
             return Ok(Self::Csv(w));
         }
@@ -179,7 +182,7 @@ impl Sink {
     /// Flushes the file; for MDF 4, closes the data block so that the file is complete.
     fn finish(self) -> Result<()> {
         match self {
-            Self::Csv(mut w) => w.flush()?,
+            Self::Csv(w) => w.commit()?,
             Self::Mdf {
                 mut writer, group, ..
             } => {

@@ -116,7 +116,7 @@ fn daq_record_writes_mdf4_with_time_master_and_units() {
     record(&a2l, &b, 50, &csv);
     let written = std::fs::read_to_string(&csv).unwrap();
     let mut lines = written.lines();
-    assert_eq!(lines.next(), Some("time,position,mode"));
+    assert_eq!(lines.next(), Some("time [s],position [m],mode"));
     let csv_time: Vec<f64> = lines
         .map(|l| l.split(',').next().unwrap().parse().unwrap())
         .collect();

@@ -286,7 +286,7 @@ fn daq_record_writes_timestamped_csv() {
     );
     let written = std::fs::read_to_string(&csv).unwrap();
     let mut lines = written.lines();
-    assert_eq!(lines.next(), Some("time,position,mode"));
+    assert_eq!(lines.next(), Some("time [s],position [m],mode"));
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();

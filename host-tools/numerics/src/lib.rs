@@ -15,11 +15,13 @@
 //!   filters.
 //! - [`interpolate`]: a uniformly sampled signal at a fractional sample index (input delays of
 //!   the effect laws and of diagnosis).
+//! - [`files`]: every output file written whole or not at all (temporary file, then renamed).
 //! - [`record`]: the CSV reader of every record and table (comma, semicolon or tab; units in
 //!   the header; decimal commas; comment lines) and the one time-base rule.
 
 pub mod dense;
 pub mod expm;
+pub mod files;
 pub mod filter;
 pub mod interpolate;
 pub mod optimise;

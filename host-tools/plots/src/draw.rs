@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -83,7 +83,8 @@ pub(crate) fn render_svg(
         draw(&root)?;
         root.present().drawing()?;
     }
-    std::fs::write(path, svg).with_context(|| format!("cannot write plot {}", path.display()))
+    // Whole or not at all: an interrupted run leaves no half-drawn plot.
+    Ok(mil_numerics::files::write_atomic(path, svg.as_bytes())?)
 }
 
 /// How a curve is drawn.

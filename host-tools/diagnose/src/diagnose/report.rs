@@ -152,11 +152,12 @@ impl Diagnosis {
         };
         std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
         let path = dir.join("updated.toml");
-        std::fs::write(&path, self.updated.to_toml()).map_err(|e| io(&path, e))?;
+        mil_numerics::files::write_atomic(&path, self.updated.to_toml().as_bytes())
+            .map_err(Error::Write)?;
         let report = self.json_report(&path.display().to_string());
         let json = serde_json::to_string_pretty(&report).unwrap_or_default();
         let rpath = dir.join("report.json");
-        std::fs::write(&rpath, json).map_err(|e| io(&rpath, e))?;
+        mil_numerics::files::write_atomic(&rpath, json.as_bytes()).map_err(Error::Write)?;
         Ok(path)
     }
 
