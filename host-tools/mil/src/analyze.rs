@@ -4,7 +4,9 @@
 use anyhow::{Context, Result};
 use mil_analysis::analyze::{analyze, AnalysisReport};
 use mil_analysis::setup::Setup;
-use mil_plots::{bode_page_svg, bode_svg, BodePlot, BodeSeries, MagnitudeScale, Marker};
+use mil_plots::{
+    bode_page_svg, bode_svg, xy_svg, BodePlot, BodeSeries, Marker, SeriesStyle, XyPlot, XySeries,
+};
 use num_complex::Complex64;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -199,12 +201,23 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
     let f = &t.frequency_hz;
     let mut files = Vec::new();
 
+    // An unstable MiL loop is said on every plot of it: its responses describe no steady
+    // state.
+    let unstable = match report.mil.stability {
+        mil_analysis::Stability::Stable => String::new(),
+        mil_analysis::Stability::Unstable(n) => {
+            format!(" (MiL loop UNSTABLE: {n} closed-loop pole(s) in the right half-plane)")
+        }
+        mil_analysis::Stability::Unknown => " (MiL loop stability not determined)".into(),
+    };
     let mut pages = Vec::new();
     for (k, resp) in report.responses.iter().enumerate() {
+        // In dB, the physical unit alongside (as every response plot of the tools).
         let mut plot = BodePlot::new(
-            format!("{}: MiL vs emulated", resp.name),
-            format!("{} [{}]", resp.name, resp.unit),
+            format!("{}: MiL vs emulated{}", resp.name, unstable),
+            format!("{} [dB re 1 {}]", resp.name, resp.unit),
         );
+        plot.magnitude_scale = mil_plots::MagnitudeScale::Decibel;
         plot.series = vec![
             series("MiL", f, &t.mil[k], false),
             series("emulated", f, &t.emulated[k], true),
@@ -224,7 +237,7 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
     files.push(path);
 
     let mut open = BodePlot::new(
-        "Open loop broken at the numerical model's summing junction",
+        format!("Open loop broken at the numerical model's summing junction{unstable}"),
         "|L|",
     );
     for (k, locus) in t.mil_open_loop.iter().enumerate() {
@@ -257,22 +270,24 @@ fn write_outputs(report: &AnalysisReport, out: &Path) -> Result<Vec<PathBuf>> {
         files.push(path);
     }
 
-    let mut noise = BodePlot::new(
+    // A magnitude only (a singular value has no phase): no phase panel.
+    let mut noise = XyPlot::new(
         "Control sensitivity: actuator command per unit measurement noise",
+        "frequency [Hz]",
         "command / noise (SI)",
     );
-    noise.series = vec![series(
+    noise.log_x = true;
+    noise.log_y = true;
+    noise.series = vec![XySeries::new(
         "MiL",
-        f,
-        &t.noise_sensitivity
-            .iter()
-            .map(|v| Complex64::new(*v, 0.0))
-            .collect::<Vec<_>>(),
-        false,
+        f.iter()
+            .copied()
+            .zip(t.noise_sensitivity.iter().copied())
+            .collect(),
+        SeriesStyle::Line,
     )];
-    noise.magnitude_scale = MagnitudeScale::Log;
     let path = out.join("noise-sensitivity.svg");
-    bode_svg(&path, &noise)?;
+    xy_svg(&path, &noise)?;
     files.push(path);
 
     let path = out.join("responses.csv");

@@ -331,37 +331,48 @@ fn write_plots(
     bode_svg(&path, &resp)?;
     files.push(path);
 
-    // Control sensitivity with and without the filter.
-    let noise = |s: &MilSystem| -> Result<Vec<Complex64>> {
+    // Control sensitivity with and without the filter: a magnitude only (no phase panel).
+    let noise = |s: &MilSystem| -> Result<Vec<(f64, f64)>> {
         grid.iter()
             .map(|&f| {
                 let p = s.point(f, Loop::Mil)?;
-                Ok(Complex64::new(
+                Ok((
+                    f,
                     mil_analysis::metrics::max_singular_value(&p.noise_to_command),
-                    0.0,
                 ))
             })
             .collect()
     };
-    let mut plot = BodePlot::new(
+    let mut plot = XyPlot::new(
         "Control sensitivity: actuator command per unit measurement noise",
+        "frequency [Hz]",
         "command / noise (SI)",
     );
-    plot.magnitude_scale = MagnitudeScale::Log;
-    plot.series = vec![
-        series("no filter", &grid, noise(&bare)?, true),
-        series("with filter", &grid, noise(&filtered)?, false),
-    ];
+    plot.log_x = true;
+    plot.log_y = true;
+    let with = noise(&filtered)?;
     let fig = &design.figures;
-    plot.markers = vec![Marker::new(
-        fig.noise_peak_with_hz,
-        format!(
-            "{:.1}x at {:.0} Hz",
-            fig.noise_ratio_at_peak, fig.noise_peak_with_hz
-        ),
-    )];
+    // The filtered peak, where the ratio is read.
+    if let Some(&(f, v)) = with.iter().min_by(|a, b| {
+        (a.0 - fig.noise_peak_with_hz)
+            .abs()
+            .total_cmp(&(b.0 - fig.noise_peak_with_hz).abs())
+    }) {
+        plot.annotations = vec![Annotation::new(
+            f,
+            v,
+            format!(
+                "{:.1}x at {:.0} Hz",
+                fig.noise_ratio_at_peak, fig.noise_peak_with_hz
+            ),
+        )];
+    }
+    plot.series = vec![
+        XySeries::new("no filter", noise(&bare)?, SeriesStyle::Dashed),
+        XySeries::new("with filter", with, SeriesStyle::Line),
+    ];
     let path = folder.join("noise-sensitivity-filter.svg");
-    bode_svg(&path, &plot)?;
+    xy_svg(&path, &plot)?;
     files.push(path);
     Ok(files)
 }
@@ -407,25 +418,31 @@ fn pareto_plot(
             SeriesStyle::Dashed,
         ),
     ];
+    // The front's designs as points, those meeting the target apart; one label only, the
+    // chosen design's (a label per point collided).
+    let meets: Vec<(f64, f64)> = front
+        .iter()
+        .filter(|p| p.meets_target)
+        .map(|p| point(&p.design))
+        .collect();
+    if !meets.is_empty() {
+        plot.series.push(XySeries::new(
+            "designs meeting the target",
+            meets,
+            SeriesStyle::Points,
+        ));
+    }
     let (x, y) = point(chosen);
-    plot.annotations = vec![Annotation {
+    plot.annotations = vec![Annotation::new(
         x,
         y,
-        label: "chosen".into(),
-    }];
-    for p in front {
-        let (x, y) = point(&p.design);
-        plot.annotations.push(Annotation {
-            x,
-            y,
-            label: format!(
-                "w {:.2}: {:.0} %{}",
-                p.weight,
-                p.design.figures.phase_lag_reduction_pct,
-                if p.meets_target { " *" } else { "" }
-            ),
-        });
-    }
+        format!(
+            "chosen: {:.1} % error, ratio {:.2}, lag -{:.0} %",
+            chosen.figures.response_error_with_pct,
+            chosen.figures.noise_sensitivity_ratio,
+            chosen.figures.phase_lag_reduction_pct
+        ),
+    )];
     xy_svg(path, &plot)?;
     Ok(())
 }

@@ -1103,10 +1103,18 @@ impl SimOutput {
         }
         // A run too short for the comparison band gives no estimate: no response plot.
         if let Some(c) = self.curves.as_ref().filter(|c| !c.frequency_hz.is_empty()) {
+            // In dB with its unit, force per road in N/mm as `mil analyze` shows it.
+            let (factor, unit) = if c.unit == "N/m" {
+                (1e-3, "N/mm")
+            } else {
+                (1.0, c.unit.as_str())
+            };
             let mut plot = BodePlot::new(
                 format!("Response from the run: {}", c.name),
-                format!("|{}| [{}]", c.name, c.unit),
+                format!("{} [dB re 1 {unit}]", c.name),
             );
+            plot.magnitude_scale = mil_plots::MagnitudeScale::Decibel;
+            plot.magnitude_factor = factor;
             plot.series = vec![
                 BodeSeries::new(
                     "emulated, estimated",

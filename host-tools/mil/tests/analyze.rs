@@ -130,6 +130,17 @@ fn two_dof_example_with_the_hub_actuator_is_reported_unstable() {
     let json = serde_json::to_value(r.summary()).unwrap();
     assert_eq!(json["stability"]["unstable"], 2);
     assert!(json["gain_margin"].as_f64().unwrap() < 1.0);
+    // The plots say so too; responses in dB with their unit; the control sensitivity (a
+    // magnitude) without a phase panel.
+    let svg = |name: &str| std::fs::read_to_string(out.path().join(name)).unwrap();
+    for name in ["responses.svg", "open-loop.svg"] {
+        assert!(
+            svg(name).contains("MiL loop UNSTABLE: 2 closed-loop pole(s)"),
+            "{name}"
+        );
+    }
+    assert!(svg("responses.svg").contains("dB re 1 "));
+    assert!(!svg("noise-sensitivity.svg").contains("phase [deg]"));
 }
 
 /// The JSON summary carries the fields the issue names, for MiL and emulated.

@@ -133,7 +133,10 @@ fn optimal_method_reports_the_front_and_the_target() {
     assert_eq!(json["front"].as_array().unwrap().len(), 3);
     assert_eq!(json["target_met"], true);
     assert!(json["noise_sensitivity_ratio"].as_f64().unwrap() <= 10.0);
-    assert!(dir.path().join("pareto.svg").is_file());
+    // One label on the trade-off plot, the chosen design's (a label per point collided).
+    let pareto = std::fs::read_to_string(dir.path().join("pareto.svg")).unwrap();
+    assert_eq!(pareto.matches("chosen: ").count(), 1, "{pareto}");
+    assert!(!pareto.contains("w 0.50"), "per-point labels are back");
 }
 
 /// Bad structures are refused with a message, and nothing is written.
