@@ -169,10 +169,18 @@ def main():
             problem = matches(expected, output)
             if problem:
                 failures.append(f"block {n}: output differs from the tutorial:\n     {problem}")
-    for bline, p, _ in background:
+    for bline, p, err in background:
         if p.poll() is None:
             p.kill()
-            failures.append(f"`{bline}` was never waited for")
+            p.wait()
+            if not failures:
+                failures.append(f"`{bline}` was never waited for")
+        # A background line that failed is often why a later line did: show what it said.
+        if failures:
+            err.seek(0)
+            said = err.read().decode(errors="replace").strip()
+            if said:
+                print(f"[background `{bline}`]\n{said}")
     elapsed = time.monotonic() - started
     if update and not failures:
         parts, k = [], 0

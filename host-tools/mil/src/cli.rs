@@ -80,6 +80,36 @@ pub fn check_output_folder(folder: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The set-up at `path` (none: the built-in tyre example), its command filter replaced by
+/// `filter` if given (`none`: no filter; relative to the working folder).
+pub fn set_up(path: Option<&Path>, filter: Option<&Path>) -> Result<crate::setup::SetUp> {
+    let mut s = match path {
+        Some(path) => crate::setup::SetUp::read(path)?,
+        None => crate::setup::SetUp::builtin()?,
+    };
+    if let Some(f) = filter {
+        s.controller.filter = if f == Path::new("none") {
+            None
+        } else {
+            Some(std::env::current_dir()?.join(f))
+        };
+    }
+    Ok(s)
+}
+
+/// The firmware image `elf`, or the one under the build folder.
+pub fn firmware_elf(elf: Option<std::path::PathBuf>) -> Result<std::path::PathBuf> {
+    match elf {
+        Some(e) => Ok(e),
+        None => anyhow::Context::with_context(mil_can::find_firmware_elf(), || {
+            format!(
+                "no firmware image found: build it with `{}` or give --elf",
+                mil_can::FIRMWARE_BUILD_COMMAND
+            )
+        }),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,10 +15,29 @@
 //! ([`filter_upload`]) calibrate and measure the board over XCP on CAN (`mil-xcp-master`),
 //! by the names of its A2L file; [`xcp`] holds what they share (port, CAN IDs, secret).
 
+/// `print!` through [`cli::print`] (a closed stdout ends the program quietly), its error
+/// returned with `?`: what every subcommand prints with.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::print(format_args!($($arg)*))?
+    };
+}
+
+/// `println!` as [`out!`].
+macro_rules! outln {
+    () => {
+        out!("\n")
+    };
+    ($($arg:tt)*) => {
+        out!("{}\n", format_args!($($arg)*))
+    };
+}
+
 pub mod actuator_test;
 pub mod analyze;
 pub mod check;
 pub mod cli;
+pub mod commands;
 pub mod compare;
 pub mod config;
 pub mod daq_record;
