@@ -271,6 +271,9 @@ pub struct QemuSummary {
     /// Parameter slots written over XCP by `mil sim` to configure the firmware for the
     /// set-up (0 when the board's XCP port was served: the engineer's tools configured it).
     pub slots_written: usize,
+    /// Demand frames of the idle steps before the run (compared with the mirror as well):
+    /// the board's demand moving to the set-up's safe demand.
+    pub idle_frames: usize,
     /// Where the board's XCP port was served ([`ServeXcp`]), if it was.
     pub xcp_served_at: Option<String>,
     /// XCP clients (tool runs) served there.
@@ -422,6 +425,7 @@ pub fn simulate_on_qemu(
         demand_frames: 0,
         mismatches: 0,
         slots_written: 0,
+        idle_frames: 0,
         xcp_served_at: None,
         xcp_clients: 0,
     };
@@ -477,11 +481,30 @@ pub fn simulate_on_qemu(
                     .replay(&reference_words(), &done.writes)
                     .map_err(|e| anyhow!(e))?;
                 summary.slots_written = done.writes.len();
+                // Idle steps, as a rig streams its measurements before a test: the board's
+                // demand moves from the configuration it booted with to the set-up's safe
+                // demand, where the host's controller starts.
+                let steps = idle_steps(
+                    &mil_firmware::config::default_params(),
+                    &params,
+                    f64::from(settings.sample_rate_hz),
+                );
+                let speed = match experiment.setting {
+                    Setting::HalfCar { .. } => experiment
+                        .inputs
+                        .get(2)
+                        .and_then(|v| v.first())
+                        .copied()
+                        .unwrap_or(0.0),
+                    _ => 0.0,
+                };
+                idle(&mut board, params.channels as usize, steps, speed as f32)?;
+                summary.idle_frames = board.samples().len();
                 None
             }
         };
         let outcome = experiment::run_on(experiment, &mut board, progress)?;
-        summary.demand_frames = board.samples().len();
+        summary.demand_frames = board.samples().len() - summary.idle_frames;
         summary.mismatches = board.mismatches();
         summary.xcp_clients = relay.as_ref().map_or(0, XcpRelay::clients);
         drop(relay);
@@ -496,6 +519,58 @@ pub fn simulate_on_qemu(
         Ok(outcome)
     })?;
     Ok((output, summary))
+}
+
+/// Idle steps that take a board configured from `from` to `to` at `fs`: its demand ramps
+/// from `from`'s safe demand to `to`'s at `to`'s safe ramp rate, a configuration change
+/// fading in over model-core's `BUMPLESS_FADE_S`; with half as much again for margin, at
+/// most 10 s.
+fn idle_steps(from: &model_core::BoardParams, to: &model_core::BoardParams, fs: f64) -> usize {
+    let dt = 1.0 / fs;
+    let ramp = (0..(to.channels as usize).min(model_core::BOARD_CHANNELS))
+        .map(|c| {
+            let gap = f64::from((from.safe_demand[c] - to.safe_demand[c]).abs());
+            let rate = f64::from(to.safe_ramp_rate[c]);
+            if rate > 0.0 {
+                (gap / (rate * dt)).ceil()
+            } else {
+                0.0
+            }
+        })
+        .fold(0.0, f64::max);
+    let fade = (f64::from(model_core::BUMPLESS_FADE_S) * fs).ceil();
+    (1.5 * (ramp + fade) + 2.0).min(10.0 * fs) as usize
+}
+
+/// `steps` idle lockstep samples of a `channels`-channel board at rest (positions and forces
+/// zero, roads level, the aero model's `speed`): the model does not run while Idle.
+fn idle<T: mil_can::Transport>(
+    board: &mut mil_can::RemoteBoard<T>,
+    channels: usize,
+    steps: usize,
+    speed: f32,
+) -> Result<()> {
+    fn go<T: mil_can::Transport, const CH: usize>(
+        board: &mut mil_can::RemoteBoard<T>,
+        steps: usize,
+        speed: f32,
+    ) -> Result<()> {
+        let rest = model_core::ModelInput::<CH> {
+            speed,
+            ..model_core::ModelInput::default()
+        };
+        for _ in 0..steps {
+            mil_rig::harness::Board::<CH>::step(board, &rest).map_err(|e| anyhow!(e))?;
+        }
+        Ok(())
+    }
+    match channels {
+        1 => go::<T, 1>(board, steps, speed),
+        2 => go::<T, 2>(board, steps, speed),
+        3 => go::<T, 3>(board, steps, speed),
+        4 => go::<T, 4>(board, steps, speed),
+        n => bail!("a {n}-channel board: the rig drives 1 to 4"),
+    }
 }
 
 /// [`simulate`] with the experiment run by `run`.

@@ -4,7 +4,7 @@
 //! per configuration the board serves: the aero four-poster (two channels, speed and ride
 //! heights), the tyre on four hubs at 1 kHz (two buses) and a substructure with nonlinear
 //! elements (stops, cubic spring, asymmetric damping, friction); and a rate beyond the bus
-//! budget refused with its figure; the tyre run's record equals the host's run of the same
+//! budget refused with its figure; each run's record equals the host's run of the same
 //! set-up, sample for sample. Short runs (QEMU steps a few hundred samples a second).
 //!
 //! Needs the QEMU build (`cargo build -p mil-firmware --target thumbv7em-none-eabihf
@@ -110,10 +110,16 @@ fn every_configuration_runs_on_the_firmware_as_on_the_host() {
     let aero = sim_qemu(&examples().join("aero.toml"), 0.6, &dir.path().join("aero"))
         .unwrap_or_else(|e| panic!("aero: {e}"));
     check(&aero, 2, 1200, "aero x2 at 2 kHz");
-    // (The aero and substructure runs are not the host's sample for sample: the board was
-    // configured from its defaults, the tyre, whose demand (its static load) it carries into
-    // the run and ramps away at the rate limit, having made no step in between; the host's
-    // controller starts from the set-up's own demand.)
+    // The board, configured from its defaults (the tyre, its static load as safe demand),
+    // steps Idle before the run until its demand is the set-up's safe demand, where the
+    // host's controller starts: the runs are equal.
+    host_run_equals(
+        &examples().join("aero.toml"),
+        0.6,
+        &dir.path().join("aero-host"),
+        &dir.path().join("aero/sim.csv"),
+        "aero",
+    );
 
     // The tyre on four hubs: at 2 kHz the bus cannot carry it, at 1 kHz (two buses) it runs.
     let tyre = examples().join("tyre.toml");
@@ -139,4 +145,11 @@ fn every_configuration_runs_on_the_firmware_as_on_the_host() {
     let sub = sim_qemu(&nonlinear, 0.6, &dir.path().join("nonlinear"))
         .unwrap_or_else(|e| panic!("nonlinear substructure: {e}"));
     check(&sub, 1, 1200, "substructure with nonlinear elements");
+    host_run_equals(
+        &nonlinear,
+        0.6,
+        &dir.path().join("nonlinear-host"),
+        &dir.path().join("nonlinear/sim.csv"),
+        "substructure",
+    );
 }

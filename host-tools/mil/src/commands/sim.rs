@@ -179,12 +179,17 @@ pub fn run(args: Args) -> Result<()> {
                 ),
             }
             outln!(
-                "demand frames:  {} compared with the host mirror{}, {} mismatches",
+                "demand frames:  {} compared with the host mirror{}{}, {} mismatches",
                 q.demand_frames,
                 if q.xcp_served_at.is_some() {
                     " of the set-up"
                 } else {
                     ""
+                },
+                if q.idle_frames > 0 {
+                    format!(" (and {} idle before the run)", q.idle_frames)
+                } else {
+                    String::new()
                 },
                 q.mismatches
             );
