@@ -250,10 +250,11 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
     simulate_with(config, progress, |experiment, progress| {
         // What the firmware runs (its run-time controller, configured as the set-up
         // configures the board), on the host.
-        let dt = (1.0 / experiment.sample_rate_hz) as f32;
-        let mut board =
-            model_core::BoardController::with_params(&experiment.setting.board_params(), dt)
-                .map_err(|e| anyhow!("the board's parameters: {e:?}"))?;
+        let mut board = model_core::BoardController::with_params(
+            &experiment.setting.board_params(),
+            experiment.setting.dt(),
+        )
+        .map_err(|e| anyhow!("the board's parameters: {e:?}"))?;
         Ok(experiment::run_on(experiment, &mut board, progress)?)
     })
 }
