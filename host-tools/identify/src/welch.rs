@@ -92,6 +92,30 @@ impl WelchOptions {
         }
     }
 
+    /// The segment rule for a response compared over a band starting at `f_min_hz`: the
+    /// resolution `sample_rate_hz / segment` puts at least four bins below `f_min_hz`, so the
+    /// band's lowest mode is resolved (a lightly damped mode between coarse bins loses its
+    /// coherence to leakage and bias), as long as the record holds four segments (13
+    /// averages at 75 % overlap); never shorter than [`Self::for_record`]'s segment.
+    /// A band edge that is not positive and finite gives [`Self::for_record`].
+    pub fn for_band(samples: usize, sample_rate_hz: f64, f_min_hz: f64) -> Self {
+        let base = Self::for_record(samples);
+        if !(f_min_hz.is_finite() && f_min_hz > 0.0 && sample_rate_hz.is_finite()) {
+            return base;
+        }
+        // Shortest power of two with fs / segment <= f_min / 4 ...
+        let wanted = 4.0 * sample_rate_hz / f_min_hz;
+        let mut segment = base.segment_length;
+        // ... no longer than a quarter of the record.
+        while (segment as f64) < wanted && segment * 2 <= samples / 4 {
+            segment *= 2;
+        }
+        Self {
+            segment_length: segment,
+            ..base
+        }
+    }
+
     /// Checks the options; errors name the bad field.
     pub fn validate(&self) -> Result<()> {
         if self.segment_length < 4 {
@@ -346,6 +370,44 @@ mod tests {
             assert!(o.segment_length.is_power_of_two());
             assert!(o.segment_length == 16 || 8 * o.segment_length <= n, "{n}");
             assert_eq!(o.overlap, WelchOptions::default().overlap);
+        }
+    }
+
+    #[test]
+    fn the_band_rule_resolves_the_lowest_band_edge_within_the_record() {
+        // 1 Hz at 2 kHz: 8192 samples (0.24 Hz) from a 20 s run, as many as fit 4 times
+        // into a short one, never shorter than the record rule.
+        assert_eq!(
+            WelchOptions::for_band(39_000, 2000.0, 1.0).segment_length,
+            8192
+        );
+        assert_eq!(
+            WelchOptions::for_band(20_000, 2000.0, 1.0).segment_length,
+            4096
+        );
+        assert_eq!(
+            WelchOptions::for_band(4000, 2000.0, 1.0).segment_length,
+            512
+        );
+        assert_eq!(WelchOptions::for_record(4000).segment_length, 256);
+        // A high band edge needs no more than the record rule.
+        assert_eq!(
+            WelchOptions::for_band(1 << 20, 2000.0, 100.0).segment_length,
+            4096
+        );
+        assert_eq!(
+            WelchOptions::for_band(1 << 20, 1000.0, 1.0).segment_length,
+            4096
+        );
+        assert_eq!(
+            WelchOptions::for_band(1 << 20, 1000.0, 0.5).segment_length,
+            8192
+        );
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(
+                WelchOptions::for_band(39_000, 2000.0, bad),
+                WelchOptions::for_record(39_000)
+            );
         }
     }
 }

@@ -1,6 +1,7 @@
 //! `mil analyze`: the frequency-domain analysis of a MiL set-up, written as a summary table,
 //! one JSON object, SVG plots and a CSV of the traces.
 
+use crate::cli::number;
 use anyhow::{Context, Result};
 use mil_analysis::analyze::{analyze, AnalysisReport};
 use mil_analysis::setup::Setup;
@@ -141,8 +142,11 @@ impl AnalyzeOutput {
                 v.iter()
                     .map(|x| {
                         format!(
-                            "{:.2} Hz ({:.4e}, ζ {:.3})",
-                            x.hz, x.magnitude, x.damping_ratio
+                            "{:.2} Hz ({} {}, ζ {:.3})",
+                            x.hz,
+                            number(x.magnitude, 3),
+                            resp.unit,
+                            x.damping_ratio
                         )
                     })
                     .collect::<Vec<_>>()
@@ -174,9 +178,13 @@ impl AnalyzeOutput {
         let n = &r.noise;
         let _ = writeln!(
             s,
-            "\ncontrol sensitivity (command per unit measurement noise, SI): peak {:.4e} at {:.1} Hz; \
-             above 60 Hz {:.4e} at {:.1} Hz; command RMS {:.4e} for the stated noise",
-            n.peak, n.peak_hz, n.peak_above_60hz, n.peak_above_60hz_hz, n.command_rms
+            "\ncontrol sensitivity (command per unit measurement noise, SI): peak {} at {:.1} Hz; \
+             above 60 Hz {} at {:.1} Hz; command RMS {} for the stated noise",
+            number(n.peak, 3),
+            n.peak_hz,
+            number(n.peak_above_60hz, 3),
+            n.peak_above_60hz_hz,
+            number(n.command_rms, 3)
         );
         for f in &self.files {
             let _ = writeln!(s, "wrote {}", f.display());

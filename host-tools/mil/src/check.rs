@@ -183,9 +183,9 @@ pub fn check(path: &Path, against: Option<&Path>) -> Result<String> {
                     .map_err(|e| anyhow!("{}: {e}", path.display()))?;
             }
             format!(
-                "record: {} samples at {:.6} Hz ({:.3} s), columns {}",
+                "record: {} samples at {} Hz ({:.3} s), columns {}",
                 r.len(),
-                1.0 / r.dt,
+                crate::cli::number(1.0 / r.dt, 6),
                 r.dt * (r.len().saturating_sub(1)) as f64,
                 r.names.join(", ")
             )

@@ -280,7 +280,7 @@ pub fn run(args: &Args) -> Result<Summary> {
             plots: Vec::new(),
         });
     }
-    let welch = WelchOptions::for_record(n - skip);
+    let welch = WelchOptions::for_band(n - skip, fs, band.0);
     let mut out = Vec::new();
     let mut bode = Vec::new();
     for &(i, j) in &pairs {
@@ -454,8 +454,8 @@ impl Summary {
                 opt(p.figures.nrms_error_pct, 1),
                 opt(p.figures.peak_error_pct, 1),
                 format!(
-                    "{:.4e}{}",
-                    p.figures.rms_error,
+                    "{}{}",
+                    crate::cli::number(p.figures.rms_error, 3),
                     p.unit.as_deref().map_or(String::new(), |u| format!(" {u}"))
                 ),
             ));

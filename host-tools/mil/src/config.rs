@@ -294,7 +294,8 @@ pub struct CompareSection {
     /// Upper edge of the comparison band (Hz).
     pub f_max_hz: f64,
     /// Welch segment length of the response estimate (samples); none: the workspace's rule
-    /// for the compared part of the run (`mil_identify::WelchOptions::for_record`).
+    /// for a band from `f_min_hz` (`mil_identify::WelchOptions::for_band`: four bins below
+    /// `f_min_hz` as long as the compared part of the run holds four segments).
     pub segment: Option<usize>,
     /// Start of the comparison (s): the first `settle_s` of the run, where the controller
     /// ramps from its safe demand to the model's (bumpless only when the safe demand is

@@ -148,8 +148,10 @@ impl DesignOutput {
         );
         let _ = writeln!(
             t,
-            "{:<44} {:>12.3e} {:>12.3e}",
-            "noise sensitivity peak 60 Hz-Nyquist", f.noise_peak_without, f.noise_peak_with
+            "{:<44} {:>12} {:>12}",
+            "noise sensitivity peak 60 Hz-Nyquist",
+            crate::cli::number(f.noise_peak_without, 3),
+            crate::cli::number(f.noise_peak_with, 3)
         );
         let _ = writeln!(
             t,

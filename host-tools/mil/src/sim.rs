@@ -164,8 +164,21 @@ pub struct ResponseCurves {
     pub mil: Vec<Complex64>,
     /// Emulated estimate.
     pub emulated: Vec<Complex64>,
-    /// The analysis' MiL and emulated predictions at the same frequencies.
-    pub predicted: Option<(Vec<Complex64>, Vec<Complex64>)>,
+    /// The comparison band (Hz) the plot covers: the estimates are drawn where coherent.
+    pub band_hz: [f64; 2],
+    /// The analysis' MiL and emulated predictions over the whole band.
+    pub predicted: Option<PredictedCurves>,
+}
+
+/// The analysis' prediction of a run's response on a fine grid over the comparison band.
+#[derive(Clone, Debug, Default)]
+pub struct PredictedCurves {
+    /// Frequencies (Hz).
+    pub frequency_hz: Vec<f64>,
+    /// MiL prediction.
+    pub mil: Vec<Complex64>,
+    /// Emulated prediction.
+    pub emulated: Vec<Complex64>,
 }
 
 /// Result of a simulation.
@@ -900,6 +913,9 @@ fn prediction(config: &Config) -> Result<Option<Prediction>> {
     }))
 }
 
+/// Points per decade of the analysis' curves on the response plot.
+const PREDICTION_POINTS_PER_DECADE: usize = 100;
+
 /// The response the run estimates, per model: tyre, channel 0's interface force per road
 /// under it (analysis: `interface_force` per `road`); aero, the body's heave per road heave
 /// (analysis: `physical:z_b` per `road_heave`), when both posts carry the same road;
@@ -917,7 +933,7 @@ fn response(
     let skip = settle_samples(config, h.len());
     let segment = cmp
         .segment
-        .unwrap_or(WelchOptions::for_record(h.len() - skip).segment_length);
+        .unwrap_or(WelchOptions::for_band(h.len() - skip, fs, cmp.f_min_hz).segment_length);
     if segment < 64 || segment > h.len() - skip {
         // Too short a run for the estimate: no response section.
         return Ok(None);
@@ -982,6 +998,7 @@ fn response(
         frequency_hz: keep.iter().map(|&k| mil.frequency_hz[k]).collect(),
         mil: keep.iter().map(|&k| mil.response[k]).collect(),
         emulated: keep.iter().map(|&k| emu.response[k]).collect(),
+        band_hz: [cmp.f_min_hz, cmp.f_max_hz],
         predicted: None,
     };
     let deviation = Deviation::worst;
@@ -1014,23 +1031,32 @@ fn response(
         }
     }
     if let Some(p) = prediction {
-        let mut predicted = (Vec::new(), Vec::new());
-        for f in &curves.frequency_hz {
-            let (mil, emulated) = (
-                p.setup.system.point(*f, Loop::Mil)?,
-                p.setup.system.point(*f, Loop::Emulated)?,
-            );
-            predicted
-                .0
-                .push(p.inputs.iter().map(|&i| p.output.pick(&mil, i)).sum());
-            predicted
-                .1
-                .push(p.inputs.iter().map(|&i| p.output.pick(&emulated, i)).sum());
-        }
-        summary.mil_vs_analysis = deviation(&curves.mil, &predicted.0);
-        summary.emulated_vs_analysis = deviation(&curves.emulated, &predicted.1);
+        // MiL and emulated predictions at the frequencies `f`.
+        let predict = |f: &[f64]| -> Result<PredictedCurves> {
+            let mut out = PredictedCurves::default();
+            for &f in f {
+                let (mil, emulated) = (
+                    p.setup.system.point(f, Loop::Mil)?,
+                    p.setup.system.point(f, Loop::Emulated)?,
+                );
+                out.frequency_hz.push(f);
+                out.mil
+                    .push(p.inputs.iter().map(|&i| p.output.pick(&mil, i)).sum());
+                out.emulated
+                    .push(p.inputs.iter().map(|&i| p.output.pick(&emulated, i)).sum());
+            }
+            Ok(out)
+        };
+        // Compared at the estimate's coherent bins, drawn over the whole band.
+        let at_bins = predict(&curves.frequency_hz)?;
+        summary.mil_vs_analysis = deviation(&curves.mil, &at_bins.mil);
+        summary.emulated_vs_analysis = deviation(&curves.emulated, &at_bins.emulated);
         summary.analysis = Some(p.name.clone());
-        curves.predicted = Some(predicted);
+        curves.predicted = Some(predict(&mil_analysis::metrics::log_grid(
+            cmp.f_min_hz,
+            cmp.f_max_hz,
+            PREDICTION_POINTS_PER_DECADE,
+        ))?);
     }
     Ok(Some((summary, curves)))
 }
@@ -1179,6 +1205,8 @@ impl SimOutput {
         }
         // A run too short for the comparison band gives no estimate: no response plot.
         if let Some(c) = self.curves.as_ref().filter(|c| !c.frequency_hz.is_empty()) {
+            // The band the figures claim, the estimates where they are coherent, the
+            // analysis over the whole band.
             // In dB with its unit, force per road in N/mm as `mil analyze` shows it.
             let (factor, unit) = if c.unit == "N/m" {
                 (1e-3, "N/mm")
@@ -1191,19 +1219,27 @@ impl SimOutput {
             );
             plot.magnitude_scale = mil_plots::MagnitudeScale::Decibel;
             plot.magnitude_factor = factor;
+            plot.frequency_span = Some(c.band_hz);
             plot.series = vec![
                 BodeSeries::new(
-                    "emulated, estimated",
+                    "emulated, estimated (coherence >= 0.9)",
                     c.frequency_hz.clone(),
                     c.emulated.clone(),
                 ),
-                BodeSeries::new("MiL, estimated", c.frequency_hz.clone(), c.mil.clone()),
+                BodeSeries::new(
+                    "MiL, estimated (coherence >= 0.9)",
+                    c.frequency_hz.clone(),
+                    c.mil.clone(),
+                ),
             ];
-            if let Some((mil, emu)) = &c.predicted {
-                let mut a =
-                    BodeSeries::new("emulated, analysis", c.frequency_hz.clone(), emu.clone());
+            if let Some(p) = &c.predicted {
+                let mut a = BodeSeries::new(
+                    "emulated, analysis",
+                    p.frequency_hz.clone(),
+                    p.emulated.clone(),
+                );
                 a.dashed = true;
-                let mut b = BodeSeries::new("MiL, analysis", c.frequency_hz.clone(), mil.clone());
+                let mut b = BodeSeries::new("MiL, analysis", p.frequency_hz.clone(), p.mil.clone());
                 b.dashed = true;
                 plot.series.extend([a, b]);
             }

@@ -76,6 +76,20 @@ fn tyre_example_reproduces_the_paper() {
             .max_magnitude_db
     };
     assert!(band(0.5) < 2.0 && band(10.0) > 10.0);
+    // Figures a person reads: a resonance's magnitude with its unit to three digits, no
+    // five-digit mantissas ("3.3912e2").
+    let table = analyze_file(&setup("tyre.toml"), out.path())
+        .unwrap()
+        .table();
+    let peak = format!("{:.0} N/mm", bounce_emulated.magnitude);
+    assert!(table.contains(&peak), "{peak}: {table}");
+    let long_mantissa = table.split_whitespace().find(|w| {
+        let w = w.trim_matches(|c: char| !c.is_ascii_alphanumeric());
+        w.split_once('e').is_some_and(|(m, e)| {
+            m.split_once('.').is_some_and(|(_, d)| d.len() > 2) && e.parse::<i32>().is_ok()
+        })
+    });
+    assert_eq!(long_mantissa, None, "{table}");
     for f in [
         "responses.svg",
         "open-loop.svg",

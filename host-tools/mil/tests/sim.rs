@@ -484,3 +484,63 @@ fn run_plots_every_channel() {
     let svg = std::fs::read_to_string(dir.path().join("out/run.svg")).unwrap();
     assert!(svg.contains("demand [kN]"));
 }
+
+/// The response comparison claims its band (1-30 Hz) and shows it: on the shipped tyre run
+/// the estimate is coherent from the band's bottom, across the vehicle's body mode (about
+/// 3.9 Hz, which coarse bins lost to leakage), the analysis is drawn over the whole band,
+/// and the plot's axis covers the band, force per road in dB re 1 N/mm.
+#[test]
+fn the_response_plot_covers_its_band_and_the_body_mode() {
+    let out = run("tyre.toml", 20.0, None);
+    let c = out.curves.as_ref().unwrap();
+    let r = out.summary.response.as_ref().unwrap();
+    assert_eq!(r.band_hz, [1.0, 30.0]);
+    assert_eq!(c.band_hz, r.band_hz);
+    let (first, last) = (c.frequency_hz[0], *c.frequency_hz.last().unwrap());
+    assert!(first < 1.5 && last > 25.0, "{first}-{last} Hz");
+    // Coherent bins on both sides of the body mode, at a resolution that resolves it.
+    let near = c
+        .frequency_hz
+        .iter()
+        .filter(|f| (3.0..5.0).contains(*f))
+        .count();
+    assert!(near >= 6, "{near} bins in 3-5 Hz: {:?}", c.frequency_hz);
+    // The emulated estimate peaks there, as the analysis says.
+    let peak = |f: &[f64], h: &[num_complex::Complex64]| {
+        f.iter()
+            .zip(h)
+            .filter(|(f, _)| (2.0..8.0).contains(*f))
+            .max_by(|a, b| a.1.norm().total_cmp(&b.1.norm()))
+            .map(|(f, _)| *f)
+            .unwrap()
+    };
+    let p = c.predicted.as_ref().unwrap();
+    let (estimated, predicted) = (
+        peak(&c.frequency_hz, &c.emulated),
+        peak(&p.frequency_hz, &p.emulated),
+    );
+    assert!(
+        (estimated - predicted).abs() < 0.5,
+        "{estimated} vs {predicted} Hz"
+    );
+    assert_eq!(p.frequency_hz.first(), Some(&1.0));
+    assert!((p.frequency_hz.last().unwrap() - 30.0).abs() < 1e-9);
+
+    let dir = tempfile::tempdir().unwrap();
+    out.write_plots(dir.path()).unwrap();
+    let svg = std::fs::read_to_string(dir.path().join("response.svg")).unwrap();
+    assert!(
+        svg.contains("[dB re 1 N/mm]"),
+        "the unit as mil analyze shows it"
+    );
+    assert!(!svg.contains("N/m]"));
+    // The frequency axis' decades 1 and 10 Hz are labelled (the band's bottom is on it).
+    let labels: Vec<&str> = svg
+        .split("</text>")
+        .filter_map(|t| t.rsplit('>').next().map(str::trim))
+        .collect();
+    assert!(
+        labels.contains(&"1") && labels.contains(&"10"),
+        "{labels:?}"
+    );
+}

@@ -126,7 +126,15 @@ impl Prepared {
             .filter(|m| m.frequency_hz.is_finite() && m.frequency_hz > 0.0)
             .map(|m| (m.frequency_hz, m.label.clone()))
             .collect();
-        let frequency = Axis::log(frequencies.chain(markers.iter().map(|m| m.0)), 1.0);
+        let span = plot
+            .frequency_span
+            .into_iter()
+            .flatten()
+            .filter(|f| f.is_finite() && *f > 0.0);
+        let frequency = Axis::log(
+            frequencies.chain(markers.iter().map(|m| m.0)).chain(span),
+            1.0,
+        );
 
         let magnitudes = all_points
             .iter()

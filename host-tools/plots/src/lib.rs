@@ -133,6 +133,9 @@ pub struct BodePlot {
     /// Horizontal reference lines on the magnitude panel, in plotted units (e.g. vec![1.0] or
     /// vec![0.0] dB).
     pub magnitude_lines: Vec<f64>,
+    /// A band (Hz, low and high) the frequency axis covers whatever the series cover, e.g. the
+    /// band a comparison claims when its estimate is coherent over part of it only.
+    pub frequency_span: Option<[f64; 2]>,
 }
 
 impl BodePlot {
@@ -147,6 +150,7 @@ impl BodePlot {
             markers: Vec::new(),
             phase_lines: Vec::new(),
             magnitude_lines: Vec::new(),
+            frequency_span: None,
         }
     }
 }

@@ -125,6 +125,53 @@ fn bode_svg_contains_series_and_marker_labels() {
 }
 
 #[test]
+fn the_frequency_axis_covers_the_span_asked_for() {
+    // A series over 5-20 Hz only, in a diagram that claims 0.5-30 Hz.
+    let frequency = log_frequencies(5.0, 20.0, 50);
+    let mut plot = BodePlot::new("coherent part of a band", "force / road [N/mm]");
+    plot.series.push(BodeSeries::new(
+        "estimate",
+        frequency.clone(),
+        resonance(&frequency, 12.0, 0.15, 0.0, 1.0),
+    ));
+    let dir = temp_dir();
+    // The frequency axis' tick labels: the numbers drawn lowest on the page.
+    let ticks = |plot: &BodePlot, name: &str| {
+        let path = dir.path().join(name);
+        bode_svg(&path, plot).unwrap();
+        let svg = read_svg(&path);
+        let numbers: Vec<(u32, String)> = svg
+            .split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                let y = t.split("y=\"").nth(1)?.split('"').next()?.parse().ok()?;
+                let text = t.split('>').nth(1)?.split('<').next()?.trim().to_string();
+                text.parse::<f64>().is_ok().then_some((y, text))
+            })
+            .collect();
+        let bottom = numbers.iter().map(|n| n.0).max().unwrap();
+        numbers
+            .into_iter()
+            .filter(|n| n.0 == bottom)
+            .map(|n| n.1)
+            .collect::<Vec<_>>()
+    };
+    let without = ticks(&plot, "without.svg");
+    assert!(!without.iter().any(|t| t == "1"), "{without:?}");
+    plot.frequency_span = Some([0.5, 30.0]);
+    let with = ticks(&plot, "with.svg");
+    for tick in ["1", "10"] {
+        assert!(
+            with.iter().any(|t| t == tick),
+            "missing tick {tick}: {with:?}"
+        );
+    }
+    // A span that is not a band of positive frequencies is ignored, not drawn.
+    plot.frequency_span = Some([0.0, f64::NAN]);
+    assert_eq!(ticks(&plot, "bad.svg"), without);
+}
+
+#[test]
 fn dashed_series_is_drawn_as_separate_segments() {
     let dir = temp_dir();
     let path = dir.path().join("bode.svg");
