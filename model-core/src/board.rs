@@ -488,6 +488,18 @@ pub enum SwapError {
     NotPrepared,
 }
 
+impl core::fmt::Display for SwapError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            SwapError::NotIdle => {
+                "the model kind, channel count, sample period or causality changes while the \
+                 controller is not Idle"
+            }
+            SwapError::NotPrepared => "the parameter set was not prepared successfully",
+        })
+    }
+}
+
 /// The board's controller: the running configuration's [`Controller`] (see the module
 /// docs).
 #[derive(Clone, Debug)]

@@ -104,6 +104,66 @@ pub enum ParamError {
     Inconsistent(Field),
 }
 
+impl Field {
+    /// The parameter's name as a person reads it (the board's A2L and the set-up name it
+    /// likewise), e.g. "tyre stiffness k_t".
+    pub fn name(&self) -> &'static str {
+        match self {
+            Field::TyreStiffness => "tyre stiffness k_t",
+            Field::TyreDamping => "tyre damping c_t",
+            Field::TyreStaticLoad => "tyre static load",
+            Field::TyreLiftOff => "tyre lift-off switch",
+            Field::VelocityCutoff => "velocity estimator cut-off",
+            Field::AeroStiffness => "aero stiffness matrix K_i",
+            Field::AeroNominalForce => "aero nominal force F_n",
+            Field::AeroReferenceSpeed => "aero reference speed",
+            Field::AeroAxleDistance => "axle distances l_f, l_r",
+            Field::AeroMap => "ride-height map",
+            Field::SubstructureDof => "substructure DOF count",
+            Field::SubstructureMass => "substructure mass matrix",
+            Field::SubstructureDamping => "substructure damping matrix",
+            Field::SubstructureStiffness => "substructure stiffness matrix",
+            Field::SubstructureInterface => "substructure interface",
+            Field::SubstructureGround => "substructure ground connections",
+            Field::SubstructureCausality => "substructure causality",
+            Field::SubstructureElement => "substructure element law",
+            Field::ModelKind => "model kind",
+            Field::Channels => "channel count",
+            Field::CommandFilter => "command filter",
+            Field::DemandAmplitude => "demand limits",
+            Field::DemandRate => "demand rate limit",
+            Field::SafeDemand => "safe demand",
+            Field::SafeRampRate => "safe ramp rate",
+            Field::SamplePeriod => "sample period",
+        }
+    }
+}
+
+impl core::fmt::Display for Field {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// "command filter: unstable (error kind 3)": the field, why, and the code the board's
+/// status and XCP replies carry.
+impl core::fmt::Display for ParamError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let why = match self {
+            ParamError::NotFinite(_) => "not finite",
+            ParamError::OutOfRange(_) => "out of range",
+            ParamError::Unstable(_) => "unstable",
+            ParamError::Inconsistent(_) => "inconsistent",
+        };
+        write!(
+            f,
+            "{}: {why} (error kind {})",
+            self.field(),
+            self.kind_code()
+        )
+    }
+}
+
 impl ParamError {
     /// The field the error refers to.
     pub fn field(&self) -> Field {

@@ -625,3 +625,34 @@ fn velocity_estimator_low_pass_step_response() {
     assert!(VelocityFilterCoefficients::new(-1.0, DT).is_err());
     assert!(VelocityFilterCoefficients::new(f32::NAN, DT).is_err());
 }
+
+/// A refused parameter reads as words on the host's screens (the tools print it with
+/// `Display`): the field, why, the board's error code, no Rust variant names.
+#[test]
+fn a_parameter_error_reads_as_words() {
+    use model_core::params::{Field, ParamError};
+    let e = ParamError::Unstable(Field::CommandFilter);
+    assert_eq!(e.to_string(), "command filter: unstable (error kind 3)");
+    assert_eq!(
+        ParamError::OutOfRange(Field::TyreStiffness).to_string(),
+        "tyre stiffness k_t: out of range (error kind 2)"
+    );
+    for e in [
+        ParamError::NotFinite(Field::SamplePeriod),
+        ParamError::Inconsistent(Field::SubstructureMass),
+        ParamError::OutOfRange(Field::AeroMap),
+    ] {
+        let (text, debug) = (e.to_string(), format!("{e:?}"));
+        assert!(
+            text.ends_with(&format!("(error kind {})", e.kind_code())),
+            "{text}"
+        );
+        assert!(
+            !text.contains(&debug) && !text.contains(&format!("{:?}", e.field())),
+            "{text}"
+        );
+    }
+    assert!(model_core::board::SwapError::NotIdle
+        .to_string()
+        .contains("not Idle"));
+}

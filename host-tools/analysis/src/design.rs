@@ -174,7 +174,7 @@ impl ContinuousFilter {
             mil_discretise::tustin_tf(&self.transfer_function()?, dt, prewarp)?.to_cascade()?;
         cascade
             .validate()
-            .map_err(|e| design_error(format!("model-core rejects the cascade: {e:?}")))?;
+            .map_err(|e| design_error(format!("model-core rejects the cascade: {e}")))?;
         Ok(cascade)
     }
 }

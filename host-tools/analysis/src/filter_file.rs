@@ -164,7 +164,7 @@ impl FilterFile {
         })?;
         cascade
             .validate()
-            .map_err(|e| bad(format!("model-core rejects the cascade: {e:?}")))?;
+            .map_err(|e| bad(format!("model-core rejects the cascade: {e}")))?;
         Ok(cascade)
     }
 

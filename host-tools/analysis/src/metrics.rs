@@ -95,6 +95,21 @@ pub enum Stability {
     Unknown,
 }
 
+/// "stable", "unstable (2 closed-loop poles in the right half-plane)", "not determined".
+impl std::fmt::Display for Stability {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Stability::Stable => f.write_str("stable"),
+            Stability::Unstable(n) => write!(
+                f,
+                "unstable ({n} closed-loop pole{} in the right half-plane)",
+                if *n == 1 { "" } else { "s" }
+            ),
+            Stability::Unknown => f.write_str("not determined"),
+        }
+    }
+}
+
 /// Gain and phase margins of a loop (negative-feedback convention, return difference
 /// `1 + L`). `None` where the loop never crosses (an infinite margin).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]

@@ -297,7 +297,7 @@ impl VelocityEstimate {
                 .map_err(|e| {
                     setup_error(format!(
                         "board velocity estimate: model-core refuses a cut-off of {cutoff_hz} Hz \
-                         at a sample period of {sample_period_s} s ({e:?}): the cut-off must be \
+                         at a sample period of {sample_period_s} s ({e}): the cut-off must be \
                          0 (plain backward difference) to 20000 Hz, the sample period 5e-5 to \
                          1e-2 s"
                     ))

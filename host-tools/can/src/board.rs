@@ -81,7 +81,7 @@ impl<T: Transport> RemoteBoard<T> {
     /// firmware's configuration is broken).
     pub fn new(transport: T) -> Result<Self, String> {
         let mirror = Controller::with_params(&default_params(), DT)
-            .map_err(|e| format!("mirror parameters: {e:?}"))?;
+            .map_err(|e| format!("mirror parameters: {e}"))?;
         let status = mirror.status();
         Ok(Self {
             transport,
@@ -172,7 +172,7 @@ impl<T: Transport> RemoteBoard<T> {
     /// The set is refused by model-core (the firmware refuses it too).
     pub fn set_mirror(&mut self, params: &BoardParams, dt: f32) -> Result<(), String> {
         self.mirror =
-            Controller::with_params(params, dt).map_err(|e| format!("mirror parameters: {e:?}"))?;
+            Controller::with_params(params, dt).map_err(|e| format!("mirror parameters: {e}"))?;
         self.status = self.mirror.status();
         Ok(())
     }
@@ -218,7 +218,7 @@ impl<T: Transport> RemoteBoard<T> {
                 format!("the mirror refuses the write of slot {slot} (code {code}) the board took")
             })?;
             self.mirror.swap(&prepared).map_err(|e| {
-                format!("the mirror refuses to install slot {slot} ({e:?}) where the board did")
+                format!("the mirror refuses to install slot {slot} ({e}) where the board did")
             })?;
         }
         self.status = self.mirror.status();
@@ -328,7 +328,7 @@ impl<T: Transport> RemoteBoard<T> {
                 value,
             },
         )
-        .map_err(|e| format!("encode command: {e:?}"))?;
+        .map_err(|e| format!("encode command: {e}"))?;
         self.command_frame(&frame)
     }
 
@@ -395,7 +395,7 @@ impl<T: Transport> RemoteBoard<T> {
                         },
                     },
                 )
-                .map_err(|e| format!("mirror demand: {e:?}"))
+                .map_err(|e| format!("mirror demand: {e}"))
             })
             .collect()
     }
@@ -420,7 +420,7 @@ impl<T: Transport> RemoteBoard<T> {
                         speed_m_s: input.speed,
                     },
                 )
-                .map_err(|e| format!("encode aux measurement: {e:?}"))?;
+                .map_err(|e| format!("encode aux measurement: {e}"))?;
                 let Ok(Message::MeasurementAux(d)) = decode(&LAYOUT, &frame) else {
                     return Err("the aux measurement frame does not decode".into());
                 };
@@ -437,7 +437,7 @@ impl<T: Transport> RemoteBoard<T> {
                     counter,
                 },
             )
-            .map_err(|e| format!("encode measurement: {e:?}"))?;
+            .map_err(|e| format!("encode measurement: {e}"))?;
             let Ok(Message::Measurement(d)) = decode(&LAYOUT, &frame) else {
                 return Err("the measurement frame does not decode".into());
             };

@@ -99,11 +99,17 @@ impl AnalyzeOutput {
             l.filter.as_deref().unwrap_or("none")
         );
         let _ = writeln!(s, "{:<28} {:>14} {:>14}", "", "MiL", "emulated");
+        // Short for the column: the count of right half-plane poles in brackets.
+        let stability = |s: mil_analysis::Stability| match s {
+            mil_analysis::Stability::Stable => "stable".to_string(),
+            mil_analysis::Stability::Unstable(n) => format!("unstable ({n})"),
+            mil_analysis::Stability::Unknown => "not determined".to_string(),
+        };
         let rows = [
             (
                 "closed loop",
-                format!("{:?}", r.mil.stability).to_lowercase(),
-                format!("{:?}", r.emulated.stability).to_lowercase(),
+                stability(r.mil.stability),
+                stability(r.emulated.stability),
             ),
             (
                 "gain margin",

@@ -135,9 +135,65 @@ pub fn number(x: f64, digits: usize) -> String {
     }
 }
 
+/// The one line `mil` prints for an error: the context chain joined by `: `, outermost
+/// first, each cause once. A cause whose text a message before it already carries (a library
+/// error that prints its I/O source and also reports it as its source, "x.a2l: No such
+/// file or directory (os error 2)" then "No such file or directory (os error 2)") is not
+/// repeated.
+pub fn error_message(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let part = cause.to_string();
+        if text.contains(part.as_str()) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_error_chain_names_each_cause_once() {
+        // A library error as thiserror's `#[error("{path}: {source}")]` makes it.
+        #[derive(Debug)]
+        struct Read {
+            path: String,
+            source: std::io::Error,
+        }
+        impl std::fmt::Display for Read {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "{}: {}", self.path, self.source)
+            }
+        }
+        impl std::error::Error for Read {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                Some(&self.source)
+            }
+        }
+        let io = || std::io::Error::from(std::io::ErrorKind::NotFound);
+        let e = anyhow::Error::new(Read {
+            path: "x.a2l".into(),
+            source: io(),
+        })
+        .context("loading the A2L");
+        let plain = io().to_string();
+        assert_eq!(
+            error_message(&e),
+            format!("loading the A2L: x.a2l: {plain}")
+        );
+        // What anyhow's alternate form prints: the I/O text twice.
+        assert_eq!(format!("{e:#}").matches(plain.as_str()).count(), 2);
+        // Distinct causes are all kept, in order.
+        let e = anyhow::anyhow!("inner").context("middle").context("outer");
+        assert_eq!(error_message(&e), "outer: middle: inner");
+    }
 
     #[test]
     fn numbers_are_printed_to_their_significant_digits() {

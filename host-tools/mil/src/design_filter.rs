@@ -29,6 +29,15 @@ pub enum Method {
     Optimal,
 }
 
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Method::Ls => "least squares",
+            Method::Optimal => "optimal",
+        })
+    }
+}
+
 /// Options of the command beyond the set-up file.
 #[derive(Clone, Debug)]
 pub struct DesignRequest {
@@ -121,7 +130,7 @@ impl DesignOutput {
         let mut t = String::new();
         let _ = writeln!(
             t,
-            "command filter for {} ({:?}, {} sections at {} Hz, roll-off {:.1} Hz)",
+            "command filter for {} ({}, {} sections at {} Hz, roll-off {:.1} Hz)",
             s.name, s.method, s.sections, s.sample_rate_hz, s.rolloff_hz
         );
         let _ = writeln!(t, "{:<44} {:>12} {:>12}", "", "without", "with filter");
@@ -178,7 +187,7 @@ impl DesignOutput {
         let _ = writeln!(
             t,
             "phase-lag reduction {:.1} %, noise-sensitivity ratio {:.2} ({:.1}x at {:.0} Hz), \
-             closed loop with filter: {:?}",
+             closed loop with filter: {}",
             f.phase_lag_reduction_pct,
             f.noise_sensitivity_ratio,
             f.noise_ratio_at_peak,

@@ -89,7 +89,7 @@ pub fn run_diagnose(
             .and_then(|section| tyre_toml(&section, &t.element, &request.model))
             .and_then(|text| Ok(mil_numerics::files::write_atomic(&path, text.as_bytes())?))
             .map(|()| path)
-            .map_err(|e| format!("{e:#}"))
+            .map_err(|e| crate::cli::error_message(&e))
     });
     Ok(DiagnoseOutput {
         diagnosis,
@@ -164,7 +164,7 @@ pub fn tyre_section(
         velocity_cutoff_hz: section.velocity_cutoff_hz,
     }
     .validate()
-    .map_err(|e| anyhow!("--tyre {element:?}: model-core rejects the tyre: {e:?}"))?;
+    .map_err(|e| anyhow!("--tyre {element:?}: model-core rejects the tyre: {e}"))?;
     Ok(section)
 }
 

@@ -139,8 +139,8 @@ pub fn run_identify(o: &IdentifyOptions) -> Result<(FrfTable, IdentifySummary)> 
     let mut data = Vec::new();
     let mut rate: Option<f64> = None;
     for path in &o.records {
-        let (fs, u, y) = read_record_csv(path, &o.input, &o.output)
-            .with_context(|| format!("reading {}", path.display()))?;
+        // Its errors name the file.
+        let (fs, u, y) = read_record_csv(path, &o.input, &o.output)?;
         if let Some(r) = rate {
             if (r - fs).abs() > 1e-6 * r {
                 bail!(

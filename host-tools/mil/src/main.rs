@@ -106,7 +106,7 @@ fn main() -> std::process::ExitCode {
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("Error: {e:#}");
+            eprintln!("Error: {}", mil::cli::error_message(&e));
             std::process::ExitCode::FAILURE
         }
     }

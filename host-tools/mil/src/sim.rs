@@ -267,7 +267,7 @@ pub fn simulate(config: &Config, progress: impl FnMut(f64)) -> Result<SimOutput>
             &experiment.setting.board_params(),
             experiment.setting.dt(),
         )
-        .map_err(|e| anyhow!("the board's parameters: {e:?}"))?;
+        .map_err(|e| anyhow!("the board's parameters: {e}"))?;
         Ok(experiment::run_on(experiment, &mut board, progress)?)
     })
 }

@@ -635,7 +635,7 @@ impl IdealSubstructure {
     ) -> Result<Self, SpecimenError> {
         params
             .validate()
-            .map_err(|e| SpecimenError(format!("substructure parameters: {e:?}")))?;
+            .map_err(|e| SpecimenError(format!("substructure parameters: {e}")))?;
         if params.causality() != Some(Causality::Impedance) {
             return Err(SpecimenError(format!(
                 "substructure causality {:?}: the simulated rig's actuators are \

@@ -226,9 +226,7 @@ impl ElementLaw {
             lift_off: u32::from(self.lift_off.is_some()),
         };
         board.validate().map_err(|e| {
-            crate::Error::Model(format!(
-                "the law is outside the board's ranges ({e:?}; see model_core::element)"
-            ))
+            crate::Error::Model(format!("the law is outside the board's ranges ({e})"))
         })?;
         Ok(board)
     }

@@ -107,7 +107,7 @@ impl Transport for SlcanSerial {
     fn send(&mut self, frame: &RawFrame) -> io::Result<()> {
         let mut line = [0u8; slcan::MAX_LINE + 1];
         let n = slcan::format_frame(frame, &mut line)
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, format!("{e:?}")))?;
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
         self.port.write_all(&line[..n])
     }
 
