@@ -129,11 +129,32 @@ fn column_for(table: &Table, name: &str) -> Option<usize> {
 }
 
 /// Two records' input columns are the same input when they differ by less than this
-/// fraction of the reference's RMS (RMS of the difference): a board recording holds the
-/// road as it came over CAN (quantised), a `mil sim` run as it was generated.
+/// fraction of the reference's RMS (RMS of the difference), or by no more than rounding to
+/// the coarser record's resolution ([`resolution`]): a board recording holds the road as it
+/// came over CAN (quantised, e.g. to 1 µm), a `mil sim` run as it was generated, and a road
+/// of a few µm differs from its frames by far more than 1 % of its RMS.
 const SAME_INPUT: f64 = 0.01;
 
-/// `a` and `b` are the same input within [`SAME_INPUT`].
+/// The step between a column's values when they are quantised: the smallest gap between two
+/// of its distinct values (gaps below 1e-9 of its largest value, the text's rounding, are
+/// none); 0 for fewer than two distinct values.
+fn resolution(x: &[f64]) -> f64 {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    let floor = 1e-9 * v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let gap = v
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|gap| *gap > floor)
+        .fold(f64::INFINITY, f64::min);
+    if gap.is_finite() {
+        gap
+    } else {
+        0.0
+    }
+}
+
+/// `a` and `b` are the same input within [`SAME_INPUT`] or their resolution.
 fn same_input(a: &[f64], b: &[f64]) -> bool {
     let rms = |x: &mut dyn Iterator<Item = f64>, n: usize| {
         (x.map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt()
@@ -141,7 +162,14 @@ fn same_input(a: &[f64], b: &[f64]) -> bool {
     let n = a.len().min(b.len());
     let diff = rms(&mut a.iter().zip(b).map(|(x, y)| x - y), n);
     let scale = rms(&mut b.iter().copied(), n);
-    diff <= SAME_INPUT * scale || a[..n] == b[..n]
+    // Rounding to the nearest step moves a value by half a step at most.
+    let step = resolution(&a[..n]).max(resolution(&b[..n]));
+    let worst = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    diff <= SAME_INPUT * scale || a[..n] == b[..n] || worst <= 0.5 * step * (1.0 + 1e-6)
 }
 
 /// Runs the comparison and writes the plots.

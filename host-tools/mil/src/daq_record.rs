@@ -53,6 +53,10 @@ pub struct Recorded {
     pub dtos_per_sample: usize,
     /// Ended early by `stop`.
     pub interrupted: bool,
+    /// Why the board's samples stopped before the length asked for (the board stopped
+    /// stepping, its port closed: e.g. a served run that ended), after at least one sample;
+    /// the file holds the samples recorded up to then.
+    pub ended_early: Option<String>,
 }
 
 /// The signals `names`: measurements first, then characteristics (the board samples both).
@@ -86,7 +90,8 @@ pub fn is_mdf(path: &Path) -> bool {
 
 /// Where the samples go.
 enum Sink {
-    /// Written whole at the end (a recording cut short by an error leaves no file).
+    /// Written whole at the end (a recording that fails before its first sample leaves no
+    /// file).
     Csv(mil_numerics::files::AtomicFile),
     Mdf {
         writer: Box<mdf4_rs::MdfWriter<mdf4_rs::writer::FileWriter>>,
@@ -233,6 +238,7 @@ pub fn record<T: Transport>(
     let (board_prescaler, host_prescaler) = (session.board_prescaler(), session.host_prescaler());
     let dtos_per_sample = session.plan().odts.len();
     let mut interrupted = false;
+    let mut ended_early = None;
     let mut samples = 0u64;
     let mut span_s = 0.0;
     let result: Result<()> = (|| {
@@ -241,7 +247,15 @@ pub fn record<T: Transport>(
                 interrupted = true;
                 break;
             }
-            let s = session.next_sample(timeout)?;
+            let s = match session.next_sample(timeout) {
+                Ok(s) => s,
+                // The board's samples stopped after some came: what came is the recording.
+                Err(e) if samples > 0 => {
+                    ended_early = Some(e.to_string());
+                    break;
+                }
+                Err(e) => return Err(e.into()),
+            };
             if let Length::Duration(d) = length {
                 if s.time_s >= d {
                     break;
@@ -262,13 +276,27 @@ pub fn record<T: Transport>(
         }
         Ok(())
     })();
-    // Stop and free the list whatever happened; complete the file with what was recorded.
+    // Stop and free the list whatever happened; complete the file with what was recorded
+    // (a CSV with no sample is not left behind).
+    let session_stats = session.stats();
     let stopped = session.stop();
+    if let Err(e) = result {
+        if let Sink::Mdf { .. } = sink {
+            // Already on disk: closed whole.
+            let _ = sink.finish();
+        }
+        return Err(e);
+    }
     let finished = sink
         .finish()
         .with_context(|| format!("cannot write {}", out.display()));
-    result?;
-    let stats = stopped?;
+    // A board whose samples stopped may no longer answer the stop: its counts are the
+    // session's own.
+    let stats = match (stopped, &ended_early) {
+        (Ok(stats), _) => stats,
+        (Err(_), Some(_)) => session_stats,
+        (Err(e), None) => return Err(e.into()),
+    };
     finished?;
     Ok(Recorded {
         samples,
@@ -279,5 +307,6 @@ pub fn record<T: Transport>(
         stats,
         dtos_per_sample,
         interrupted,
+        ended_early,
     })
 }

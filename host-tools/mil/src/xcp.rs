@@ -141,7 +141,8 @@ pub fn connect(args: &BoardArgs, a2l: &A2l) -> Result<Master<Port>> {
 }
 
 /// Connects ([`connect`]), runs `f` and disconnects (also when `f` fails; a failing
-/// DISCONNECT after a successful `f` is reported on stderr only).
+/// DISCONNECT after a successful `f` is reported on stderr only, unless the board's side
+/// of the link is gone: nothing is left to disconnect).
 ///
 /// # Errors
 /// Those of [`connect`] and of `f`.
@@ -153,7 +154,15 @@ pub fn session<R>(
     let mut master = connect(args, a2l)?;
     let result = f(&mut master);
     if let Err(e) = master.disconnect() {
-        if result.is_ok() {
+        let gone = matches!(&e, mil_xcp_master::Error::Io(io) if matches!(
+            io.kind(),
+            std::io::ErrorKind::BrokenPipe
+                | std::io::ErrorKind::ConnectionReset
+                | std::io::ErrorKind::ConnectionAborted
+                | std::io::ErrorKind::NotConnected
+                | std::io::ErrorKind::UnexpectedEof
+        ));
+        if result.is_ok() && !gone {
             eprintln!("warning: DISCONNECT: {e}");
         }
     }

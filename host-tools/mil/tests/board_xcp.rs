@@ -283,6 +283,54 @@ fn a_board_configured_otherwise_fails_the_run_and_no_recording_is_named() {
     );
 }
 
+/// A recording asked for longer than the served run: the board's samples stop when the run
+/// ends; `mil daq record` keeps what came (the whole run, complete), says why it is short
+/// and how, and fails; the run itself succeeds.
+#[test]
+fn a_recording_longer_than_the_run_keeps_the_run_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    a2l(dir);
+    let port = free_port();
+    let rig = serve(dir, port, &["--duration", "0.4"]);
+    let o = run_with(
+        dir,
+        &["param", "set", "--setup", setup().to_str().unwrap()],
+        port,
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let o = run_with(
+        dir,
+        &[
+            "daq",
+            "record",
+            "--signals",
+            "road,demand",
+            "--duration",
+            "5",
+            "--out",
+            "daq.csv",
+        ],
+        port,
+    );
+    assert!(!o.status.success(), "{}", text(&o));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("the board's samples stopped after") && e.contains("5 s asked for"),
+        "{e}"
+    );
+    assert!(e.contains("daq.csv holds the"), "{e}");
+    // One line: no panic, no warning about the link the board's side closed.
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    let rig = rig.wait_with_output().unwrap();
+    assert!(rig.status.success(), "{}", text(&rig));
+    // The run's 400 steps at 1 kHz, each line whole.
+    let (names, rows) = read_csv(&dir.join("daq.csv"));
+    assert_eq!(names, ["time", "road", "demand"]);
+    assert!((350..=400).contains(&rows.len()), "{} samples", rows.len());
+    assert!(rows.iter().all(|r| r.len() == 3));
+}
+
 #[test]
 fn xcp_needs_the_board_in_qemu() {
     let dir = tempfile::tempdir().unwrap();

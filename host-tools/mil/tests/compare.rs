@@ -209,4 +209,41 @@ fn a_board_recording_pairs_with_the_run_and_its_quantised_road_is_the_same_input
         stderr.contains("different inputs (column `road`"),
         "{stderr}"
     );
+
+    // A road of a few µm: its 1 µm frames differ from it by far more than 1 % of its RMS,
+    // by no more than the rounding; 5 % more road is still another input.
+    let small = |t: f64, scale: f64| scale * 5e-6 * (TAU * 2.0 * t).sin();
+    let write_small = |name: &str, scale: f64, quantised: bool| {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(dir.path().join(name)).unwrap());
+        writeln!(w, "time [s],road_0 [m],demand_0 [N]").unwrap();
+        for i in 0..(5.0 * fs) as usize {
+            let t = i as f64 / fs;
+            let mut r = small(t, scale);
+            if quantised {
+                r = (r / 1e-6).round() * 1e-6;
+            }
+            writeln!(w, "{t},{r},{}", demand(t)).unwrap();
+        }
+    };
+    write_small("small-run.csv", 1.0, false);
+    write_small("small-board.csv", 1.0, true);
+    write_small("small-other.csv", 1.05, true);
+    let compare = |record: &str| {
+        mil(
+            dir.path(),
+            &[
+                "compare",
+                record,
+                "--against",
+                "small-run.csv",
+                "--out",
+                "cmp",
+            ],
+        )
+    };
+    let (code, stdout, stderr) = compare("small-board.csv");
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let (code, _, stderr) = compare("small-other.csv");
+    assert_eq!(code, Some(1));
+    assert!(stderr.contains("different inputs"), "{stderr}");
 }

@@ -161,3 +161,47 @@ fn impossible_structure_is_refused() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("zeros < poles"));
     assert!(!filter.exists());
 }
+
+/// The shipped filter files are what `mil design-filter` writes for their set-ups today:
+/// the same sections, their `sos` form, poles and zeros, and current figures (to 1e-9
+/// relative: the figures are informative, recomputed by other code paths than the
+/// coefficients); a change of the design or its figures shows here, not in a user's diff.
+#[test]
+fn the_shipped_filters_are_current() {
+    let dir = tempfile::tempdir().unwrap();
+    for (setup, shipped) in [
+        ("tyre.toml", "tyre-filter.json"),
+        ("aero.toml", "aero-filter.json"),
+        ("two-dof.toml", "two-dof-filter.json"),
+    ] {
+        let out = dir.path().join(shipped);
+        run_json(&[
+            "design-filter",
+            example(setup).to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        let read = |p: &std::path::Path| -> serde_json::Value {
+            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+        };
+        let (new, old) = (read(&out), read(&example(shipped)));
+        assert_eq!(new["sections"], old["sections"], "{shipped}");
+        assert!(old["sections"][0]["sos"].is_array(), "{shipped}: no sos");
+        assert!(
+            old["sections"][0]["poles"].is_array(),
+            "{shipped}: no poles"
+        );
+        let figures = new["figures"].as_object().unwrap();
+        assert_eq!(figures.len(), old["figures"].as_object().unwrap().len());
+        for (key, value) in figures {
+            match (value.as_f64(), old["figures"][key].as_f64()) {
+                (Some(a), Some(b)) => assert!(
+                    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()),
+                    "{shipped}: {key} {b}, today {a}: regenerate it with mil design-filter"
+                ),
+                _ => assert_eq!(value, &old["figures"][key], "{shipped}: {key}"),
+            }
+        }
+    }
+}

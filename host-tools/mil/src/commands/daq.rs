@@ -121,5 +121,20 @@ pub fn run(command: DaqCommand) -> Result<()> {
             recorded.stats.incomplete
         );
     }
+    if let Some(why) = &recorded.ended_early {
+        // The samples that came are the file; the shortfall is the command's failure.
+        let asked = match length {
+            crate::daq_record::Length::Duration(d) => format!("{d} s asked for"),
+            crate::daq_record::Length::Samples(n) => format!("{n} samples asked for"),
+        };
+        anyhow::bail!(
+            "the board's samples stopped after {:.3} s ({asked}): {why}; {} holds the {} \
+             samples recorded (did the run on the board end, e.g. a `mil sim --xcp` run \
+             shorter than the recording?)",
+            recorded.span_s,
+            out.display(),
+            recorded.samples
+        );
+    }
     Ok(())
 }

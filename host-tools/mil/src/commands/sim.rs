@@ -46,7 +46,8 @@ pub struct Args {
     /// upload`, `mil daq record`, one at a time, `--port tcp:ADDRESS`) instead of
     /// configuring the board itself; the rig holds still until a DAQ measurement starts
     /// on the board, then runs the road, the recording beginning with the run (record
-    /// at most --duration: the board's port closes when the run ends).
+    /// at most --duration: the board's port closes when the run ends, and a longer
+    /// recording keeps the run's samples and fails, saying so).
     #[arg(long)]
     pub xcp: Option<std::net::SocketAddr>,
     /// With --xcp: how long to wait for the measurement (s).
