@@ -110,30 +110,7 @@ pub fn firmware_elf(elf: Option<std::path::PathBuf>) -> Result<std::path::PathBu
     }
 }
 
-/// `x` to `digits` significant digits for a person to read: plain notation from 0.001 to
-/// 99 999 (`339`, `2.45`, `0.0123`, a whole number never cut: `12346`), scientific beyond
-/// (`1.56e6`, `4.1e-5`); `0`, `inf`, `NaN` as such. The tools' summaries print figures
-/// whose decimals have no fixed meaning with it (a response's magnitude, a sensitivity).
-pub fn number(x: f64, digits: usize) -> String {
-    let digits = digits.max(1);
-    if x == 0.0 || !x.is_finite() {
-        return format!("{}", x + 0.0);
-    }
-    let magnitude = x.abs();
-    if (1e-3..99_999.5).contains(&magnitude) {
-        let exponent = magnitude.log10().floor() as i64;
-        let decimals = (digits as i64 - 1 - exponent).max(0) as usize;
-        let text = format!("{x:.decimals$}");
-        // Rounding up to the next decade (9.996 -> "10.00") keeps one decimal too many.
-        let rounded: f64 = text.parse().unwrap_or(x);
-        if rounded.abs().log10().floor() as i64 > exponent && decimals > 0 {
-            return format!("{x:.prec$}", prec = decimals - 1);
-        }
-        text
-    } else {
-        format!("{x:.prec$e}", prec = digits - 1)
-    }
-}
+pub use mil_numerics::format::number;
 
 /// The one line `mil` prints for an error: the context chain joined by `: `, outermost
 /// first, each cause once. A cause whose text a message before it already carries (a library
@@ -193,30 +170,6 @@ mod tests {
         // Distinct causes are all kept, in order.
         let e = anyhow::anyhow!("inner").context("middle").context("outer");
         assert_eq!(error_message(&e), "outer: middle: inner");
-    }
-
-    #[test]
-    fn numbers_are_printed_to_their_significant_digits() {
-        for (x, digits, text) in [
-            (339.12, 3, "339"),
-            (2.4518, 3, "2.45"),
-            (0.012_345, 3, "0.0123"),
-            (1000.0, 3, "1000"),
-            (12_345.6, 3, "12346"),
-            (1_561_600.0, 3, "1.56e6"),
-            (14_040_000.0, 3, "1.40e7"),
-            (-0.000_041_2, 2, "-4.1e-5"),
-            (9.996, 3, "10.0"),
-            (0.999_96, 3, "1.00"),
-            (-17.17, 3, "-17.2"),
-            (0.0, 3, "0"),
-            (-0.0, 3, "0"),
-            (f64::INFINITY, 3, "inf"),
-            (f64::NAN, 3, "NaN"),
-            (3.0, 0, "3"),
-        ] {
-            assert_eq!(number(x, digits), text, "{x} to {digits} digits");
-        }
     }
 
     #[test]

@@ -236,8 +236,10 @@ impl DiagnoseOutput {
         ));
         let factor = d.gap_before.nrmse / d.gap_after.nrmse;
         s.push_str(&format!(
-            "gap (NRMSE, validation blocks): {:.4} before -> {:.4} after ({factor:.2}x smaller)\n",
-            d.gap_before.nrmse, d.gap_after.nrmse
+            "gap (NRMSE, validation blocks): {:.4} before -> {:.4} after ({}x smaller)\n",
+            d.gap_before.nrmse,
+            d.gap_after.nrmse,
+            crate::cli::number(factor, 3)
         ));
         if let Some(w) = d
             .windows

@@ -21,7 +21,8 @@ pub enum RoadInput {
     },
     /// Pink (1/f power) noise, band-limited to `max_hz`, scaled to an RMS displacement.
     Pink {
-        /// RMS displacement (m).
+        /// RMS displacement (m) over the road's first 20 s ([`PINK_REFERENCE_S`]): runs of
+        /// every duration drive the same road.
         rms_m: f64,
         /// Upper band edge (Hz).
         max_hz: f64,
@@ -164,13 +165,21 @@ fn taper(t: f64, duration: f64, fade: f64) -> f64 {
 
 use mil_numerics::rng::SplitMix64;
 
+/// The stretch of a pink road its `rms_m` holds over (s): the road is one road whatever the
+/// run's duration (a shorter run drives its start, a longer one drives on), scaled so that
+/// its first 20 s, faded in and out as a 20 s run is, have the RMS asked for.
+pub const PINK_REFERENCE_S: f64 = 20.0;
+
 /// Pink noise: white Gaussian noise through Paul Kellet's 1/f filter, a second-order
-/// Butterworth low-pass at `max_hz` (bilinear), a 0.2 Hz high-pass to remove drift, scaled to
-/// `rms` and tapered at both ends.
+/// Butterworth low-pass at `max_hz` (bilinear), a 0.2 Hz high-pass to remove drift, scaled so
+/// that its first [`PINK_REFERENCE_S`] (tapered as a run of that length) have RMS `rms`, and
+/// tapered at both ends of the run. The same `seed` gives the same road for every `n`: two
+/// runs of different lengths agree up to the shorter one's end fade.
 pub fn pink(n: usize, dt: f64, rms: f64, max_hz: f64, seed: u64) -> Vec<f64> {
+    let reference = (PINK_REFERENCE_S / dt).round().max(1.0) as usize;
     let mut rng = SplitMix64::new(seed);
     let mut b = [0.0f64; 7];
-    let mut raw: Vec<f64> = (0..n)
+    let mut raw: Vec<f64> = (0..n.max(reference))
         .map(|_| {
             let w = rng.normal();
             b[0] = 0.99886 * b[0] + w * 0.0555179;
@@ -186,16 +195,22 @@ pub fn pink(n: usize, dt: f64, rms: f64, max_hz: f64, seed: u64) -> Vec<f64> {
         .collect();
     butterworth_lowpass(&mut raw, max_hz, dt);
     highpass(&mut raw, 0.2, dt);
-    let duration = n as f64 * dt;
-    let fade = 0.5f64.min(duration / 4.0);
-    for (k, v) in raw.iter_mut().enumerate() {
-        *v *= taper(k as f64 * dt, duration, fade);
-    }
-    let current = (raw.iter().map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt();
+    // The scale from the reference stretch, faded as a run of its length.
+    let faded = |x: &[f64], k: usize, count: usize| {
+        let duration = count as f64 * dt;
+        x[k] * taper(k as f64 * dt, duration, 0.5f64.min(duration / 4.0))
+    };
+    let current = ((0..reference)
+        .map(|k| faded(&raw, k, reference).powi(2))
+        .sum::<f64>()
+        / reference as f64)
+        .sqrt();
+    raw.truncate(n);
+    let mut road: Vec<f64> = (0..n).map(|k| faded(&raw, k, n)).collect();
     if current > 0.0 {
-        raw.iter_mut().for_each(|v| *v *= rms / current);
+        road.iter_mut().for_each(|v| *v *= rms / current);
     }
-    raw
+    road
 }
 
 fn butterworth_lowpass(x: &mut [f64], fc: f64, dt: f64) {
@@ -491,13 +506,46 @@ mod tests {
 
     #[test]
     fn pink_noise_is_scaled_and_reproducible() {
-        let a = pink(20_000, 2e-4, 0.001, 50.0, 7);
-        let b = pink(20_000, 2e-4, 0.001, 50.0, 7);
-        let c = pink(20_000, 2e-4, 0.001, 50.0, 8);
+        // 20 s at 5 kHz: the reference stretch, RMS as asked for.
+        let a = pink(100_000, 2e-4, 0.001, 50.0, 7);
+        let b = pink(100_000, 2e-4, 0.001, 50.0, 7);
+        let c = pink(100_000, 2e-4, 0.001, 50.0, 8);
         assert_eq!(a, b);
         assert_ne!(a, c);
         let rms = (a.iter().map(|v| v * v).sum::<f64>() / a.len() as f64).sqrt();
         assert!((rms - 0.001).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_pink_road_is_one_road_whatever_the_run_s_duration() {
+        let dt = 5e-4;
+        let long = pink(120_000, dt, 5e-4, 40.0, 1);
+        for seconds in [3.0, 5.0, 20.0, 45.0] {
+            let n = (seconds / dt) as usize;
+            let short = pink(n, dt, 5e-4, 40.0, 1);
+            assert_eq!(short.len(), n);
+            // Equal between the fade-in and the shorter run's fade-out (0.5 s each).
+            let (from, to) = ((0.5 / dt) as usize, n - (0.5 / dt) as usize);
+            for k in from..to {
+                assert!(
+                    (short[k] - long[k]).abs() <= 1e-12 * 5e-4,
+                    "{seconds} s, sample {k}: {} vs {}",
+                    short[k],
+                    long[k]
+                );
+            }
+            // Faded in and out: at rest at both ends.
+            assert_eq!(short[0], 0.0);
+            assert!(
+                short[n - 1].abs() < 1e-3 * 5e-4,
+                "{seconds} s: {}",
+                short[n - 1]
+            );
+        }
+        // The same road at any rate the run asks for is scaled alike (20 s RMS as asked).
+        let at_2k = pink(40_000, dt, 5e-4, 40.0, 1);
+        let rms = (at_2k.iter().map(|v| v * v).sum::<f64>() / at_2k.len() as f64).sqrt();
+        assert!((rms - 5e-4).abs() < 1e-12, "{rms}");
     }
 
     #[test]

@@ -18,11 +18,14 @@
 //! - [`files`]: every output file written whole or not at all (temporary file, then renamed).
 //! - [`record`]: the CSV reader of every record and table (comma, semicolon or tab; units in
 //!   the header; decimal commas; comment lines) and the one time-base rule.
+//! - [`format`]: figures as a person reads them: significant digits, a value with its
+//!   uncertainty.
 
 pub mod dense;
 pub mod expm;
 pub mod files;
 pub mod filter;
+pub mod format;
 pub mod interpolate;
 pub mod optimise;
 pub mod record;

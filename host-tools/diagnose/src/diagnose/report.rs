@@ -7,6 +7,7 @@ use crate::evidence::{BandEvidence, RegionEvidence, WindowEvidence};
 use crate::model::Model;
 use crate::split::Split;
 use crate::{Error, Result};
+use mil_numerics::format::{number, with_uncertainty};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -179,9 +180,10 @@ impl Diagnosis {
         s.push_str("recalibrated:\n");
         for (k, v) in &self.recalibrated {
             match self.recalibrated_std.get(k) {
-                Some(sd) => s.push_str(&format!("  {k} = {v:.6e} ± {sd:.2e}\n")),
+                Some(sd) => s.push_str(&format!("  {k} = {}\n", with_uncertainty(*v, *sd))),
                 None => s.push_str(&format!(
-                    "  {k} = {v:.6e} (no uncertainty: see the notes)\n"
+                    "  {k} = {} (no uncertainty: see the notes)\n",
+                    number(*v, 6)
                 )),
             }
         }
@@ -199,19 +201,19 @@ impl Diagnosis {
             ));
             for (k, v) in &n.named.parameters {
                 let sd = n.std.get(k).copied().unwrap_or(f64::NAN);
-                s.push_str(&format!("  {k} = {v:.6e} ± {sd:.2e}\n"));
+                s.push_str(&format!("  {k} = {}\n", with_uncertainty(*v, sd)));
             }
         }
         for r in &self.regions {
             let (a, b) = r.worst_bin;
             s.push_str(&format!(
-                "  region: {:?} misses {:.3e} N on average at x in [{:.3e}, {:.3e}] m, v in [{:.3e}, {:.3e}] m/s\n",
+                "  region: {:?} misses {} N on average at x in [{}, {}] m, v in [{}, {}] m/s\n",
                 r.element,
-                r.mean_residual_n[a][b],
-                r.x_edges_m[a],
-                r.x_edges_m[a + 1],
-                r.v_edges_m_per_s[b],
-                r.v_edges_m_per_s[b + 1]
+                number(r.mean_residual_n[a][b], 3),
+                number(r.x_edges_m[a], 3),
+                number(r.x_edges_m[a + 1], 3),
+                number(r.v_edges_m_per_s[b], 3),
+                number(r.v_edges_m_per_s[b + 1], 3)
             ));
         }
         if let Some(b) = self.bands.iter().max_by(|a, b| {
