@@ -205,7 +205,7 @@ impl DesignOutput {
                 if met {
                     "met"
                 } else {
-                    "NOT reachable on this front (see pareto.svg)"
+                    "NOT reachable on this front (see the pareto plot)"
                 }
             );
             if let Some(front) = s.front.as_ref().filter(|f| !f.is_empty()) {
@@ -256,11 +256,13 @@ fn series(label: &str, f: &[f64], h: Vec<Complex64>, dashed: bool) -> BodeSeries
     }
 }
 
-/// Writes the plots of a design; returns the files.
+/// Writes the plots of a design into `folder`, named after the filter file (`stem`): two
+/// designs in one folder keep their own plots; returns the files.
 fn write_plots(
     setup: &Setup,
     design: &FilterDesign,
     folder: &Path,
+    stem: &str,
     pick: &(dyn Fn(&LoopPoint) -> Complex64 + Sync),
 ) -> Result<Vec<PathBuf>> {
     let fs = setup.sample_rate_hz;
@@ -298,7 +300,7 @@ fn write_plots(
     tracking.magnitude_lines = vec![0.0];
     tracking.phase_lines = vec![0.0];
     tracking.markers = vec![Marker::new(30.0, "fit band ends 30 Hz")];
-    let path = folder.join("filter.svg");
+    let path = folder.join(format!("{stem}.svg"));
     bode_page_svg(&path, &[filt, tracking])?;
     files.push(path);
 
@@ -338,7 +340,7 @@ fn write_plots(
             false,
         ),
     ];
-    let path = folder.join("response-with-filter.svg");
+    let path = folder.join(format!("{stem}-response.svg"));
     bode_svg(&path, &resp)?;
     files.push(path);
 
@@ -382,7 +384,7 @@ fn write_plots(
         XySeries::new("no filter", noise(&bare)?, SeriesStyle::Dashed),
         XySeries::new("with filter", with, SeriesStyle::Line),
     ];
-    let path = folder.join("noise-sensitivity-filter.svg");
+    let path = folder.join(format!("{stem}-noise-sensitivity.svg"));
     xy_svg(&path, &plot)?;
     files.push(path);
     Ok(files)
@@ -551,9 +553,14 @@ pub fn run_design_filter(
         bail!("the filter file does not read back to the designed cascade");
     }
     let mut files = vec![request.out.clone()];
-    files.extend(write_plots(&setup, &design, &folder, &pick)?);
+    // The plots are named after the filter file.
+    let stem = request
+        .out
+        .file_stem()
+        .map_or_else(|| "filter".into(), |s| s.to_string_lossy().into_owned());
+    files.extend(write_plots(&setup, &design, &folder, &stem, &pick)?);
     if let Some((front_points, least_squares)) = &extra_plot {
-        let path = folder.join("pareto.svg");
+        let path = folder.join(format!("{stem}-pareto.svg"));
         pareto_plot(&path, front_points, least_squares, &design, &target)?;
         files.push(path);
     }

@@ -83,6 +83,22 @@ fn run_with(dir: &Path, args: &[&str], port: u16) -> Output {
     mil(dir, &refs)
 }
 
+/// The board served for `duration` s in `dir` (its A2L written there), configured for the
+/// set-up with `mil param set --setup`: its port, the serving `mil sim` and param set's
+/// output.
+fn configured(dir: &Path, duration: &str) -> (u16, Child, Output) {
+    a2l(dir);
+    let port = free_port();
+    let rig = serve(dir, port, &["--duration", duration]);
+    let o = run_with(
+        dir,
+        &["param", "set", "--setup", setup().to_str().unwrap()],
+        port,
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    (port, rig, o)
+}
+
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
@@ -102,16 +118,7 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 fn configured_over_xcp_recorded_by_daq_and_compared() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
-    a2l(dir);
-    let port = free_port();
-    let rig = serve(dir, port, &["--duration", "1"]);
-
-    let o = run_with(
-        dir,
-        &["param", "set", "--setup", setup().to_str().unwrap()],
-        port,
-    );
-    assert!(o.status.success(), "{}", text(&o));
+    let (port, rig, o) = configured(dir, "1");
     // The set-up runs four wheels at 1 kHz; the board boots with one at 2 kHz.
     assert!(text(&o).contains("sample_rate"), "{}", text(&o));
     assert!(
@@ -290,15 +297,7 @@ fn a_board_configured_otherwise_fails_the_run_and_no_recording_is_named() {
 fn a_recording_longer_than_the_run_keeps_the_run_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
-    a2l(dir);
-    let port = free_port();
-    let rig = serve(dir, port, &["--duration", "0.4"]);
-    let o = run_with(
-        dir,
-        &["param", "set", "--setup", setup().to_str().unwrap()],
-        port,
-    );
-    assert!(o.status.success(), "{}", text(&o));
+    let (port, rig, _) = configured(dir, "0.4");
     let o = run_with(
         dir,
         &[

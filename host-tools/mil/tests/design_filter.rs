@@ -56,9 +56,9 @@ fn design_filter_writes_a_filter_that_analyze_uses() {
         json["sections"].as_u64().unwrap() as usize
     );
     for plot in [
-        "filter.svg",
-        "response-with-filter.svg",
-        "noise-sensitivity-filter.svg",
+        "tyre-filter.svg",
+        "tyre-filter-response.svg",
+        "tyre-filter-noise-sensitivity.svg",
     ] {
         assert!(dir.path().join(plot).is_file(), "{plot}");
     }
@@ -134,9 +134,22 @@ fn optimal_method_reports_the_front_and_the_target() {
     assert_eq!(json["target_met"], true);
     assert!(json["noise_sensitivity_ratio"].as_f64().unwrap() <= 10.0);
     // One label on the trade-off plot, the chosen design's (a label per point collided).
-    let pareto = std::fs::read_to_string(dir.path().join("pareto.svg")).unwrap();
+    let pareto = std::fs::read_to_string(dir.path().join("opt-pareto.svg")).unwrap();
     assert_eq!(pareto.matches("chosen: ").count(), 1, "{pareto}");
     assert!(!pareto.contains("w 0.50"), "per-point labels are back");
+    // A second design in the same folder keeps its own plots beside the first's.
+    let before = std::fs::read(dir.path().join("opt.svg")).unwrap();
+    run_json(&[
+        "design-filter",
+        example("tyre.toml").to_str().unwrap(),
+        "--out",
+        dir.path().join("ls.json").to_str().unwrap(),
+        "--json",
+    ]);
+    for plot in ["ls.svg", "ls-response.svg", "ls-noise-sensitivity.svg"] {
+        assert!(dir.path().join(plot).exists(), "{plot}");
+    }
+    assert_eq!(std::fs::read(dir.path().join("opt.svg")).unwrap(), before);
 }
 
 /// Bad structures are refused with a message, and nothing is written.
