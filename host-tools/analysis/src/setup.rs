@@ -636,7 +636,19 @@ fn response(
                     &path.display().to_string(),
                 )?))
             } else {
-                ResponseSource::Table(frf)
+                // A table is defined over its band only, and the analysis evaluates the
+                // response at every frequency of its stability contour (0 to 20 kHz, off the
+                // imaginary axis): only a tracking table has a fitted extension.
+                let (lo, hi) = frf.frequency_range();
+                return Err(setup_error(format!(
+                    "actuator.{what} = {{ table = {table:?} }}: a measured {what} table \
+                     ({lo:.2}-{hi:.1} Hz in {}) is not extended beyond its band as a tracking \
+                     table is, and the analysis needs the {what} response at every frequency \
+                     (0 Hz to 20 kHz for the loop's stability); give it as a model fitted to \
+                     the table (`{what} = {{ numerator = [...], denominator = [...], delay_s = \
+                     ... }}`, coefficients in descending powers of s) or \"reference\"",
+                    path.display()
+                )));
             }
         }
     })

@@ -132,3 +132,40 @@ fn no_internal_type_names_reach_the_user() {
         "{stdout}"
     );
 }
+
+/// A measured disturbance table was taken and then failed deep in the analysis ("0.5 Hz is
+/// outside the table's frequency range", naming neither the table nor the fix); it is
+/// refused when the set-up is read, naming the key, the file, its band and what to give.
+#[test]
+fn a_disturbance_table_is_refused_naming_the_key_and_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let examples = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples");
+    for file in ["tyre-physical.toml", "tyre-tracking.csv"] {
+        std::fs::copy(examples.join(file), dir.path().join(file)).unwrap();
+    }
+    std::fs::copy(
+        examples.join("tyre-tracking.csv"),
+        dir.path().join("compliance.csv"),
+    )
+    .unwrap();
+    let setup = std::fs::read_to_string(examples.join("tyre-board.toml")).unwrap();
+    let line = "tracking = { table = \"tyre-tracking.csv\" }";
+    assert!(setup.contains(line));
+    let setup = setup.replace(
+        line,
+        &format!("{line}\ndisturbance = {{ table = \"compliance.csv\" }}"),
+    );
+    std::fs::write(dir.path().join("rig.toml"), setup).unwrap();
+    for command in ["analyze", "design-filter", "sim", "check"] {
+        let (code, _, stderr) = common::mil_in(dir.path(), &[command, "rig.toml"]);
+        assert_eq!(code, Some(1), "{command}: {stderr}");
+        for part in [
+            "actuator.disturbance",
+            "compliance.csv",
+            "0.73-175.3 Hz",
+            "numerator",
+        ] {
+            assert!(stderr.contains(part), "{command}: {part}: {stderr}");
+        }
+    }
+}
