@@ -172,6 +172,24 @@ fn same_input(a: &[f64], b: &[f64]) -> bool {
     diff <= SAME_INPUT * scale || a[..n] == b[..n] || worst <= 0.5 * step * (1.0 + 1e-6)
 }
 
+/// The factor and unit a response `output / input` is plotted in, from the columns' units:
+/// N/m as N/mm (as `mil analyze` and `mil sim` show force per displacement), others as
+/// they come; none where a column has no unit.
+fn response_unit(output: Option<&str>, input: Option<&str>) -> (f64, Option<String>) {
+    match (output, input) {
+        (Some("N"), Some("m")) => (1e-3, Some("N/mm".into())),
+        (Some(a), Some(b)) => (1.0, Some(format!("{a}/{b}"))),
+        _ => (1.0, None),
+    }
+}
+
+/// `dB re 1 UNIT`, or `dB` without a unit.
+fn decibel_label(unit: &(f64, Option<String>)) -> String {
+    unit.1
+        .as_ref()
+        .map_or_else(|| "dB".to_string(), |u| format!("dB re 1 {u}"))
+}
+
 /// Runs the comparison and writes the plots.
 ///
 /// # Errors
@@ -348,6 +366,10 @@ pub fn run(args: &Args) -> Result<Summary> {
                     };
                 let (fa, ra) = keep(&mine);
                 let (fb, rb) = keep(&theirs);
+                // The response's unit from the headers, force per road in N/mm as every
+                // command shows it.
+                let response_unit =
+                    response_unit(record.units[i].as_deref(), record.units[u].as_deref());
                 let mut plot = BodePlot::new(
                     format!(
                         "{} / {}: {} against {reference_name}",
@@ -355,9 +377,16 @@ pub fn run(args: &Args) -> Result<Summary> {
                         record.names[u],
                         args.record.display()
                     ),
-                    format!("{} / {} [dB]", record.names[i], record.names[u]),
+                    format!(
+                        "{} / {} [{}]",
+                        record.names[i],
+                        record.names[u],
+                        decibel_label(&response_unit)
+                    ),
                 );
                 plot.magnitude_scale = MagnitudeScale::Decibel;
+                plot.magnitude_factor = response_unit.0;
+                plot.frequency_span = Some([band.0, band.1]);
                 let mut theirs_series = BodeSeries::new(reference.names[j].clone(), fb, rb);
                 theirs_series.dashed = true;
                 plot.series = vec![

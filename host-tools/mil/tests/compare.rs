@@ -192,6 +192,24 @@ fn a_board_recording_pairs_with_the_run_and_its_quantised_road_is_the_same_input
     assert_eq!(v["identical"], serde_json::json!(["position"]));
     let j1 = v["pairs"][1]["figures"]["delay_ms"].as_f64().unwrap();
     assert!((j1 - 2.0).abs() < 0.1, "J1 {j1}");
+    // The demand per road in dB with its unit, force per displacement in N/mm as every
+    // command shows it.
+    let (code, _, stderr) = mil(
+        dir.path(),
+        &[
+            "compare",
+            "daq.csv",
+            "--against",
+            "run.csv",
+            "--input",
+            "road",
+            "--out",
+            "cmp-road",
+        ],
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    let svg = std::fs::read_to_string(dir.path().join("cmp-road/response-demand.svg")).unwrap();
+    assert!(svg.contains("demand / road [dB re 1 N/mm]"), "{svg}");
 
     let (code, _, stderr) = mil(
         dir.path(),
