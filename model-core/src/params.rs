@@ -149,16 +149,11 @@ impl core::fmt::Display for Field {
 /// status and XCP replies carry.
 impl core::fmt::Display for ParamError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        let why = match self {
-            ParamError::NotFinite(_) => "not finite",
-            ParamError::OutOfRange(_) => "out of range",
-            ParamError::Unstable(_) => "unstable",
-            ParamError::Inconsistent(_) => "inconsistent",
-        };
         write!(
             f,
-            "{}: {why} (error kind {})",
+            "{}: {} (error kind {})",
             self.field(),
+            self.reason(),
             self.kind_code()
         )
     }
@@ -172,6 +167,16 @@ impl ParamError {
             | ParamError::OutOfRange(f)
             | ParamError::Unstable(f)
             | ParamError::Inconsistent(f) => f,
+        }
+    }
+
+    /// Why, in words: "not finite", "out of range", "unstable", "inconsistent".
+    pub fn reason(&self) -> &'static str {
+        match self {
+            ParamError::NotFinite(_) => "not finite",
+            ParamError::OutOfRange(_) => "out of range",
+            ParamError::Unstable(_) => "unstable",
+            ParamError::Inconsistent(_) => "inconsistent",
         }
     }
 

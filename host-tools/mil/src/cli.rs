@@ -80,6 +80,33 @@ pub fn check_output_folder(folder: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The set-up and the command filter of the commands that run or analyse one (`mil sim`,
+/// `mil run`, `mil analyze`), flattened into their arguments.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct SetUpArgs {
+    /// MiL set-up (TOML); examples in host-tools/mil/examples/. None: the built-in tyre
+    /// example.
+    pub setup: Option<std::path::PathBuf>,
+    /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
+    #[arg(long)]
+    pub filter: Option<std::path::PathBuf>,
+}
+
+impl SetUpArgs {
+    /// The set-up as [`set_up`] reads it.
+    ///
+    /// # Errors
+    /// As [`set_up`].
+    pub fn read(&self) -> Result<crate::setup::SetUp> {
+        set_up(self.setup.as_deref(), self.filter.as_deref())
+    }
+
+    /// Neither a set-up nor a filter given: the main job's built-in example as it ships.
+    pub fn is_builtin(&self) -> bool {
+        self.setup.is_none() && self.filter.is_none()
+    }
+}
+
 /// The set-up at `path` (none: the built-in tyre example), its command filter replaced by
 /// `filter` if given (`none`: no filter; relative to the working folder).
 pub fn set_up(path: Option<&Path>, filter: Option<&Path>) -> Result<crate::setup::SetUp> {

@@ -172,13 +172,14 @@ fn same_input(a: &[f64], b: &[f64]) -> bool {
     diff <= SAME_INPUT * scale || a[..n] == b[..n] || worst <= 0.5 * step * (1.0 + 1e-6)
 }
 
-/// The factor and unit a response `output / input` is plotted in, from the columns' units:
-/// N/m as N/mm (as `mil analyze` and `mil sim` show force per displacement), others as
-/// they come; none where a column has no unit.
+/// The factor and unit a response `output / input` is plotted in, from the columns' units
+/// ([`crate::plot::response_unit`]); none where a column has no unit.
 fn response_unit(output: Option<&str>, input: Option<&str>) -> (f64, Option<String>) {
     match (output, input) {
-        (Some("N"), Some("m")) => (1e-3, Some("N/mm".into())),
-        (Some(a), Some(b)) => (1.0, Some(format!("{a}/{b}"))),
+        (Some(a), Some(b)) => {
+            let (factor, unit) = crate::plot::response_unit(&format!("{a}/{b}"));
+            (factor, Some(unit))
+        }
         _ => (1.0, None),
     }
 }

@@ -523,17 +523,12 @@ impl Config {
         let filter = self.command_filter()?;
         let l = &self.limits;
         let param_error = |e: model_core::ParamError| {
-            let why = match e {
-                model_core::ParamError::NotFinite(_) => "not finite",
-                model_core::ParamError::OutOfRange(_) => "out of the board's range",
-                model_core::ParamError::Unstable(_) => "unstable",
-                model_core::ParamError::Inconsistent(_) => "inconsistent",
-            };
             // The set-up's key, not model-core's field name; the code is the one the board's
             // status and XCP replies carry.
             anyhow::anyhow!(
-                "{}: {why} (the board would refuse it with error kind {})",
+                "{}: {} (the board would refuse it with error kind {})",
                 set_up_key(e.field()),
+                e.reason(),
                 e.kind_code()
             )
         };

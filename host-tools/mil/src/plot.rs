@@ -1,9 +1,21 @@
-//! `mil run`'s plots, drawn by `mil-plots` like every other plot of the tools.
+//! `mil run`'s plots, drawn by `mil-plots` like every other plot of the tools, and the
+//! tools' one rule for a response's plotted unit.
 
 use crate::run::RunOutput;
 use anyhow::Result;
 use mil_plots::{xy_svg, SeriesStyle, XyPlot, XySeries};
 use std::path::{Path, PathBuf};
+
+/// How the tools plot a response whose SI unit is `unit`: force per displacement (N/m) in
+/// N/mm, as `mil analyze` shows it, every other unit as it is; the factor multiplies the SI
+/// magnitude.
+pub fn response_unit(unit: &str) -> (f64, String) {
+    if unit == "N/m" {
+        (1e-3, "N/mm".into())
+    } else {
+        (1.0, unit.into())
+    }
+}
 
 /// At most about this many points per line (a long run is decimated for the plot only).
 const MAX_POINTS: usize = 4000;

@@ -1208,11 +1208,7 @@ impl SimOutput {
             // The band the figures claim, the estimates where they are coherent, the
             // analysis over the whole band.
             // In dB with its unit, force per road in N/mm as `mil analyze` shows it.
-            let (factor, unit) = if c.unit == "N/m" {
-                (1e-3, "N/mm")
-            } else {
-                (1.0, c.unit.as_str())
-            };
+            let (factor, unit) = crate::plot::response_unit(&c.unit);
             let mut plot = BodePlot::new(
                 format!("Response from the run: {}", c.name),
                 format!("{} [dB re 1 {unit}]", c.name),

@@ -322,3 +322,25 @@ fn a_structure_file_is_the_physical_part() {
     );
     assert!(ja.to_string().len() > 1000, "a report with figures");
 }
+
+/// `mil analyze` takes its set-up as `mil sim` and `mil run` do: without one, the built-in
+/// tyre example (the one the main job runs), the same as its shipped file.
+#[test]
+fn without_a_set_up_the_built_in_example_is_analysed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mil"))
+        .args(["analyze", "--json", "--out", "out"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let shipped = analyze_file(&setup("tyre.toml"), &dir.path().join("shipped")).unwrap();
+    let shipped = serde_json::to_value(shipped.summary()).unwrap();
+    assert_eq!(json["name"], "tyre");
+    assert_eq!(json["gain_margin"], shipped["gain_margin"]);
+}

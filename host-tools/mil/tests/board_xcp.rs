@@ -14,25 +14,15 @@ use std::process::{Child, Command, Output, Stdio};
 
 use mil_xcp::mock::TEST_SECRET;
 
+mod common;
+use common::text;
+
 fn setup() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/tyre-board.toml")
 }
 
 fn mil(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args(args)
-        .current_dir(dir)
-        .env("MIL_XCP_SECRET", std::str::from_utf8(TEST_SECRET).unwrap())
-        .output()
-        .expect("run mil")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
+    common::mil_with_secret(dir, args, TEST_SECRET)
 }
 
 /// A local port free at the time of asking.

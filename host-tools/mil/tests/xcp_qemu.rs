@@ -7,7 +7,7 @@
 //! --release --features qemu`, whose XCP secret is `mil-xcp`'s public test secret) and QEMU.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -19,20 +19,11 @@ use mil_frames::{
 };
 use mil_xcp::mock::TEST_SECRET;
 
-fn mil(args: &[&str], secret: &[u8]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mil"))
-        .args(args)
-        .env("MIL_XCP_SECRET", std::str::from_utf8(secret).unwrap())
-        .output()
-        .expect("run mil")
-}
+mod common;
+use common::text;
 
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
+fn mil(args: &[&str], secret: &[u8]) -> Output {
+    common::mil_with_secret(Path::new("."), args, secret)
 }
 
 /// The demands of the lockstep, with the time each arrived.

@@ -7,11 +7,9 @@ use std::path::PathBuf;
 /// The arguments of `mil analyze`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// MiL set-up (TOML).
-    pub setup: PathBuf,
-    /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
-    #[arg(long)]
-    pub filter: Option<PathBuf>,
+    /// The set-up and its command filter.
+    #[command(flatten)]
+    pub set_up: crate::cli::SetUpArgs,
     /// Output folder for the plots (SVG) and traces (CSV).
     #[arg(long, default_value = "out/analyze")]
     pub out: PathBuf,
@@ -25,15 +23,9 @@ pub struct Args {
 /// # Errors
 /// What the command refuses or fails on, one line naming it.
 pub fn run(args: Args) -> Result<()> {
-    let Args {
-        setup,
-        filter,
-        out,
-        json,
-    } = args;
+    let Args { set_up, out, json } = args;
     crate::cli::check_output_folder(&out)?;
-    let result =
-        crate::analyze::run_analyze(&crate::cli::set_up(Some(&setup), filter.as_deref())?, &out)?;
+    let result = crate::analyze::run_analyze(&set_up.read()?, &out)?;
     if json {
         outln!("{}", serde_json::to_string(&result.summary())?);
     } else {

@@ -6,11 +6,9 @@ use std::path::PathBuf;
 /// The arguments of `mil run`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// MiL set-up (TOML); examples in host-tools/mil/examples/.
-    pub setup: Option<PathBuf>,
-    /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
-    #[arg(long)]
-    pub filter: Option<PathBuf>,
+    /// The set-up and its command filter.
+    #[command(flatten)]
+    pub set_up: crate::cli::SetUpArgs,
     /// Output folder for run.csv, run.svg (demand) and run-road.svg.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -24,13 +22,8 @@ pub struct Args {
 /// # Errors
 /// What the command refuses or fails on, one line naming it.
 pub fn run(args: Args) -> Result<()> {
-    let Args {
-        setup,
-        filter,
-        out,
-        json,
-    } = args;
-    let config = crate::cli::set_up(setup.as_deref(), filter.as_deref())?.run()?;
+    let Args { set_up, out, json } = args;
+    let config = set_up.read()?.run()?;
     crate::cli::check_output_folder(&out)?;
     let bar = crate::cli::progress_bar(json, 1000, "running controller");
     let result = crate::run(&config, |f| bar.set_position((f * 1000.0) as u64))?;

@@ -16,11 +16,9 @@ pub enum SimBoard {
 /// The arguments of `mil sim`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// MiL set-up (TOML); examples in host-tools/mil/examples/.
-    pub setup: Option<PathBuf>,
-    /// Command filter (JSON) in place of the set-up's; `none`: without a filter.
-    #[arg(long)]
-    pub filter: Option<PathBuf>,
+    /// The set-up and its command filter.
+    #[command(flatten)]
+    pub set_up: crate::cli::SetUpArgs,
     /// Output folder (CSV and SVG plots).
     #[arg(long, default_value = "out/sim")]
     pub out: PathBuf,
@@ -61,8 +59,7 @@ pub struct Args {
 /// What the command refuses or fails on, one line naming it.
 pub fn run(args: Args) -> Result<()> {
     let Args {
-        setup,
-        filter,
+        set_up,
         out,
         json,
         board,
@@ -77,7 +74,7 @@ pub fn run(args: Args) -> Result<()> {
     if !(wait.is_finite() && wait > 0.0) {
         anyhow::bail!("--wait: a time in seconds above 0, got {wait}");
     }
-    let mut config = crate::cli::set_up(setup.as_deref(), filter.as_deref())?.sim()?;
+    let mut config = set_up.read()?.sim()?;
     crate::cli::check_output_folder(&out)?;
     if let Some(d) = duration {
         config.run.duration_s = d;
@@ -110,7 +107,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     // The main job (the built-in example, no filter asked for) also runs with the
     // paper's command filter: the problem and its answer side by side.
-    let paper = if setup.is_none() && filter.is_none() && board == SimBoard::Host {
+    let paper = if set_up.is_builtin() && board == SimBoard::Host {
         let mut file = tempfile::NamedTempFile::new()?;
         std::io::Write::write_all(&mut file, crate::setup::DEFAULT_FILTER.as_bytes())?;
         let mut with = crate::cli::set_up(None, Some(file.path()))?.sim()?;
